@@ -1,0 +1,50 @@
+// The closed-loop CPG controller: oscillator network + trajectory shaping + per-leg elastic feedback.
+//
+// One update() per control tick (500 Hz on Morti) turns the latest binary contacts into joint commands.
+// The controller knows nothing about physics engines or motor buses; it only sees contacts and time.
+#pragma once
+
+#include "cpgmatch/cpg.hpp"
+#include "cpgmatch/feedback.hpp"
+#include "cpgmatch/plant.hpp"
+
+namespace cpgmatch {
+
+struct ControllerConfig {
+  std::string gait = "trot";
+  double coupling_gain_per_s = 0.5;  // K in the oscillator equation
+  double control_rate_hz = 500.0;
+  // The CPG amplitudes ramp from 0 to their full value over this time, so a rollout starts from
+  // standing still instead of with a jump in the joint targets.
+  double startup_ramp_s = 1.0;
+  FeedbackConfig feedback;
+};
+
+struct ControllerOutput {
+  PerLeg<JointCommand> commands;
+  PerLeg<FeedbackActivity> activity;
+  PerLeg<double> phases{};
+};
+
+class CpgController {
+ public:
+  CpgController(const CpgParameters& params, const ControllerConfig& config);
+
+  // Advances the controller by one control period using the contacts polled most recently.
+  ControllerOutput update(const PerLeg<bool>& contacts);
+
+  double time_s() const { return time_s_; }
+  const PhaseOscillatorNetwork& network() const { return network_; }
+  const CpgParameters& params() const { return params_; }
+  double control_period_s() const { return 1.0 / config_.control_rate_hz; }
+
+ private:
+  CpgParameters params_;
+  ControllerConfig config_;
+  PhaseOscillatorNetwork network_;
+  PerLeg<LegFeedback> feedback_;
+  PerLeg<StepTiming> timing_;
+  double time_s_ = 0.0;
+};
+
+}  // namespace cpgmatch

@@ -1,0 +1,79 @@
+// The central pattern generator: four coupled phase oscillators and the joint trajectories they drive.
+//
+// This is the phase-space form of the modified Hopf oscillator used by Ruppert & Badri-Sproewitz (2022):
+// one phase per leg, phi_i in [0, 1) cycles, integrated as
+//
+//     dphi_i/dt = rate_i * ( f + K * sum_j sin(2 pi (phi_j - phi_i - d_ij)) )
+//
+// where f is the step frequency (Hz), K the coupling gain (1/s), d_ij = offset_j - offset_i the desired
+// phase difference from the gait's phase-offset vector, and rate_i in [0, 1] the feedback's phase
+// deceleration (1 = free running). A gait is therefore data: a vector of four phase offsets.
+//
+// Convention inside one leg's cycle: phi = 0 is the nominal touchdown, [0, D) is stance, [D, 1) swing,
+// with D the duty factor of that leg. The oscillator runs uniformly; the duty factor only shapes the
+// joint trajectories (see JointTrajectory), so phase locking does not depend on front/hind duty factors.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "cpgmatch/legs.hpp"
+#include "cpgmatch/params.hpp"
+
+namespace cpgmatch {
+
+struct Gait {
+  std::string name;
+  PerLeg<double> phase_offsets{};  // cycles, FL FR HL HR
+
+  // trot, walk, pace, bound, pronk. Throws InputError for an unknown name.
+  static Gait named(std::string_view name);
+  static std::vector<std::string> names();
+};
+
+class PhaseOscillatorNetwork {
+ public:
+  PhaseOscillatorNetwork(Gait gait, double coupling_gain_per_s);
+
+  // Starts every oscillator at its gait offset (already phase locked).
+  void reset();
+  // Starts from arbitrary phases (used by tests of the locking dynamics).
+  void reset(const PerLeg<double>& phases);
+
+  // Explicit Euler step of dt seconds; rates are the per-leg phase-deceleration factors in [0, 1].
+  void step(double dt_s, double frequency_hz, const PerLeg<double>& rates);
+
+  const PerLeg<double>& phases() const { return phases_; }
+  // Cycles completed by each leg since reset (integer part of the unwrapped phase).
+  const PerLeg<long>& cycles() const { return cycles_; }
+  const Gait& gait() const { return gait_; }
+
+  // Largest deviation of the wrapped phase differences from the gait's, in cycles (0 = locked).
+  double locking_error() const;
+
+ private:
+  Gait gait_;
+  double coupling_gain_;
+  PerLeg<double> phases_{};
+  PerLeg<long> cycles_{};
+};
+
+// Key phases (cycles) of one leg's step, derived from the parameters.
+struct StepTiming {
+  double duty_factor;      // stance ends (nominal toe-off, hip starts to protract)
+  double knee_flex_start;  // knee flexion begins (leads toe-off by knee_phase_shift of the stance)
+  double retraction_start; // swing-leg retraction begins; knee is extended again here
+};
+
+StepTiming step_timing(const CpgParameters& params, int leg);
+
+// Hip shape in units of the hip amplitude as a function of phase: +1 at touchdown, -1 at toe-off,
+// 1 + overswing at the start of retraction. Continuous in phi.
+double hip_profile(double phi, double duty_factor, double overswing);
+
+// Knee flexion in units of the knee amplitude: a raised cosine between flex_start and flex_end
+// (wrapping through 1 -> 0 is not needed because flex_start < flex_end < 1).
+double knee_profile(double phi, double flex_start, double flex_end);
+
+}  // namespace cpgmatch

@@ -1,0 +1,23 @@
+// Error types shared by every cpgmatch component.
+//
+// InputError is for mistakes in what a user gave us (a config file, a flag, a DDS sample): the message
+// names the field and, for files, the file and line. Executables turn it into exit code 2. Programmer
+// errors are not InputError; they are assertions or std::logic_error.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace cpgmatch {
+
+class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Exit codes used by every cpgmatch executable.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;
+inline constexpr int kExitBadInput = 2;
+
+}  // namespace cpgmatch

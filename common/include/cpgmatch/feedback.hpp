@@ -1,0 +1,80 @@
+// The four contact-triggered elastic feedback mechanisms of the paper, per leg.
+//
+// Each leg runs a small state machine over its CPG phase and its binary contact signal:
+//
+//   late touchdown  (LTD): stance has begun (phi in [0, D)) but the foot has not touched down yet.
+//                          The leg's phase is decelerated until contact ("wait for the ground").
+//   early touchdown (ETD): the foot touches down during swing, after it had lifted off and before
+//                          swing-leg retraction. Triggers a knee pull-up reflex on a fixed trajectory and
+//                          makes the hip motor passive, so the leg springs absorb the impact.
+//   early toe-off   (ETO): contact is lost during stance before the knee was scheduled to flex.
+//                          Knee flexion starts at once instead of waiting for the feedforward schedule.
+//   late toe-off    (LTO): the foot is still on the ground after the nominal toe-off (phi >= D) and has
+//                          not lifted since. Always measured; decelerates the phase only if configured.
+//
+// The activity flags r(t) are what the cost's J_feedback integrates: they are true exactly while a
+// mechanism is correcting (LTD: waiting; ETD: reflex running; ETO: knee ahead of schedule;
+// LTO: contact held too long). A disabled mechanism is still *measured* only for LTO, as the paper does;
+// the others neither act nor report when switched off (for ablations).
+#pragma once
+
+#include "cpgmatch/cpg.hpp"
+
+namespace cpgmatch {
+
+struct FeedbackConfig {
+  bool late_touchdown = true;
+  bool early_touchdown = true;
+  bool early_toeoff = true;
+  bool late_toeoff_deceleration = false;  // LTO is always measured; this also slows the phase
+  double late_touchdown_phase_rate = 0.1;  // phase speed factor while waiting for touchdown (0..1)
+  double late_toeoff_phase_rate = 0.5;     // phase speed factor during LTO, when deceleration is on
+  double reflex_duration_s = 0.12;         // knee pull-up reflex length, seconds
+  double reflex_knee_flexion_rad = 0.5;    // peak extra knee flexion of the reflex, radians
+  bool reflex_hip_passive = true;          // hip motor passive while the reflex runs
+
+  // Everything off: the open-loop CPG (LTO is still measured).
+  static FeedbackConfig none();
+};
+
+struct FeedbackActivity {
+  bool late_touchdown = false;
+  bool early_touchdown = false;
+  bool early_toeoff = false;
+  bool late_toeoff = false;
+  int count() const { return late_touchdown + early_touchdown + early_toeoff + late_toeoff; }
+};
+
+// What feedback asks of the leg's trajectory generator and oscillator for this control tick.
+struct FeedbackAction {
+  double phase_rate = 1.0;          // multiplies the oscillator's phase velocity
+  double extra_knee_flexion = 0.0;  // rad, added to the feedforward knee target (reflex)
+  double knee_flex_start = -1.0;    // phase; >= 0 replaces the scheduled knee flexion start (ETO)
+  bool hip_passive = false;
+  FeedbackActivity activity;
+};
+
+class LegFeedback {
+ public:
+  explicit LegFeedback(FeedbackConfig config = {});
+
+  // Call once per control tick with the leg's phase before and after the previous oscillator step and
+  // the latest polled contact. dt_s is the control period.
+  FeedbackAction update(double phase, bool contact, double dt_s, const StepTiming& timing);
+
+  void reset();
+
+ private:
+  enum class Part { kStance, kSwing };
+
+  FeedbackConfig config_;
+  bool initialised_ = false;
+  double last_phase_ = 0.0;
+  bool touched_down_ = false;   // contact seen since this stance window began (or in retraction)
+  bool lifted_off_ = false;     // contact lost since the nominal toe-off of this swing
+  bool reflex_used_ = false;    // one reflex per swing
+  double reflex_time_left_ = 0.0;
+  double early_flex_start_ = -1.0;  // phase at which ETO started knee flexion, this cycle
+};
+
+}  // namespace cpgmatch

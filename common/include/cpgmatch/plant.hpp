@@ -1,0 +1,50 @@
+// The interface between the controller and a robot body, simulated or real.
+//
+// The same controller, contact sensing and cost run against any Plant: the ODE model in workers/ and the
+// robot agent's motor bus later. A Plant holds the last joint command until a new one arrives, and
+// advance() moves time forward (simulated physics steps, or waiting for the real-time clock).
+// All values are SI: radians, metres, seconds, newtons, newton-metres.
+#pragma once
+
+#include "cpgmatch/legs.hpp"
+
+namespace cpgmatch {
+
+struct JointCommand {
+  double hip_angle_rad = 0.0;      // hip target relative to the plant's hip zero; + moves the foot forward
+  double knee_flexion_rad = 0.0;   // knee flexion target on top of the standing knee angle
+  bool hip_passive = false;        // hip motor produces no torque (impact mitigation)
+};
+
+struct LegState {
+  double hip_angle_rad = 0.0;
+  double knee_flexion_rad = 0.0;
+  double hip_torque_nm = 0.0;      // torque the hip motor produced
+  double knee_torque_nm = 0.0;     // torque the knee motor produced
+  double foot_normal_force_n = 0.0;
+};
+
+struct TrunkState {
+  double x_m = 0.0;         // distance walked over the ground (treadmill: belt travel included)
+  double height_m = 0.0;    // trunk centre height above the start ground level
+  double pitch_rad = 0.0;   // + nose up
+  double vx_mps = 0.0;      // forward speed over the ground
+};
+
+struct PlantState {
+  double time_s = 0.0;
+  TrunkState trunk;
+  PerLeg<LegState> legs;
+};
+
+class Plant {
+ public:
+  virtual ~Plant() = default;
+  virtual void command(const PerLeg<JointCommand>& commands) = 0;
+  virtual void advance(double dt_s) = 0;
+  virtual PlantState state() const = 0;
+  // The plant's own integration period (seconds); the rollout advances it in steps of this size.
+  virtual double time_step_s() const = 0;
+};
+
+}  // namespace cpgmatch

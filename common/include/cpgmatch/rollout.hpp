@@ -1,0 +1,59 @@
+// One rollout: the controller drives a Plant for entrain_s + eval_s seconds, and the cost is evaluated
+// over the last eval_s. Physics, control and contact polling run at their own rates (1 kHz / 500 Hz /
+// 250 Hz on Morti); the plant's time step sets the base rate and the others must divide it evenly.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "cpgmatch/contact_sensor.hpp"
+#include "cpgmatch/controller.hpp"
+#include "cpgmatch/cost.hpp"
+#include "cpgmatch/params.hpp"
+#include "cpgmatch/plant.hpp"
+
+namespace cpgmatch {
+
+struct RolloutSettings {
+  double entrain_s = 10.0;
+  double eval_s = 10.0;
+  ControllerConfig controller;
+  ContactSensorConfig contact_sensor;
+  CostConfig cost;
+};
+
+struct RolloutResult {
+  CostBreakdown breakdown;  // cost replaced by the fall cost when fell
+  double cost = 0.0;
+  bool fell = false;
+  double fall_time_s = -1.0;
+  double sim_time_s = 0.0;
+  double wall_time_s = 0.0;
+  CpgParameters params;
+};
+
+// Everything the trace CSV shows, once per control tick.
+struct TraceSample {
+  double time_s;
+  const PlantState* state;
+  const ControllerOutput* output;
+  const PerLeg<bool>* contacts;
+};
+using TraceSink = std::function<void(const TraceSample&)>;
+
+// Runs a rollout on `plant`. `seed` drives the contact-sensor noise. Never throws for a bad gait: falls
+// and non-finite plant states end the rollout with the fall cost.
+RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const RolloutSettings& settings,
+                          std::uint64_t seed, const TraceSink& trace = {});
+
+// Loads rollout settings from YAML (keys: entrain_s, eval_s, controller{...}, contact_sensor{...},
+// cost{...}); every key is optional and defaults to the paper's value.
+RolloutSettings load_rollout_settings(const std::string& path);
+
+// Loads a parameter file (a mapping of parameter names to numbers) over `base`.
+CpgParameters load_parameters(const std::string& path, CpgParameters base = {});
+
+// Writes the trace as CSV; opens the file and returns a sink that appends one row per sample.
+TraceSink make_csv_trace(const std::string& path);
+
+}  // namespace cpgmatch

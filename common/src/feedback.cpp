@@ -1,0 +1,101 @@
+#include "cpgmatch/feedback.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace cpgmatch {
+
+FeedbackConfig FeedbackConfig::none() {
+  FeedbackConfig c;
+  c.late_touchdown = false;
+  c.early_touchdown = false;
+  c.early_toeoff = false;
+  c.late_toeoff_deceleration = false;
+  return c;
+}
+
+LegFeedback::LegFeedback(FeedbackConfig config) : config_(config) {}
+
+void LegFeedback::reset() {
+  initialised_ = false;
+  touched_down_ = lifted_off_ = reflex_used_ = false;
+  reflex_time_left_ = 0.0;
+  early_flex_start_ = -1.0;
+}
+
+FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, const StepTiming& timing) {
+  const double duty = timing.duty_factor;
+  if (!initialised_) {
+    // Standing start: the feet are on the ground, so treat the current window as already touched down.
+    initialised_ = true;
+    last_phase_ = phase;
+    touched_down_ = contact;
+    lifted_off_ = !contact;
+  }
+
+  // Window transitions. A wrap (phase decreased) starts a new stance window; crossing the duty factor
+  // starts the swing window.
+  const bool wrapped = phase < last_phase_ - 0.5;
+  const bool entered_swing = !wrapped && last_phase_ < duty && phase >= duty;
+  if (entered_swing) {
+    lifted_off_ = !contact;
+    reflex_used_ = false;
+    touched_down_ = false;
+  }
+  if (wrapped) {
+    early_flex_start_ = -1.0;
+    // Touchdown during retraction (before the wrap) counts as on time.
+  }
+  last_phase_ = phase;
+
+  FeedbackAction action;
+  const bool in_stance = phase < duty;
+
+  if (in_stance) {
+    if (contact) touched_down_ = true;
+    // Late touchdown: stance has begun, no ground yet.
+    if (!touched_down_ && config_.late_touchdown) {
+      action.activity.late_touchdown = true;
+      action.phase_rate = std::min(action.phase_rate, config_.late_touchdown_phase_rate);
+    }
+    // Early toe-off: ground lost after touchdown, before the knee was due to flex.
+    if (touched_down_ && !contact && config_.early_toeoff && phase < timing.knee_flex_start &&
+        early_flex_start_ < 0.0) {
+      early_flex_start_ = phase;
+    }
+    if (early_flex_start_ >= 0.0 && phase < timing.knee_flex_start) {
+      action.activity.early_toeoff = true;
+    }
+  } else {
+    if (!contact) lifted_off_ = true;
+    if (contact && phase >= timing.retraction_start) touched_down_ = true;  // on-time touchdown
+    // Late toe-off: still on the ground after the nominal toe-off, never lifted in between.
+    if (contact && !lifted_off_) {
+      action.activity.late_toeoff = true;
+      if (config_.late_toeoff_deceleration) {
+        action.phase_rate = std::min(action.phase_rate, config_.late_toeoff_phase_rate);
+      }
+    }
+    // Early touchdown: touched again after lifting off, before retraction.
+    if (contact && lifted_off_ && phase < timing.retraction_start && !reflex_used_ &&
+        config_.early_touchdown) {
+      reflex_used_ = true;
+      reflex_time_left_ = config_.reflex_duration_s;
+    }
+  }
+
+  if (reflex_time_left_ > 0.0) {
+    // Knee pull-up on a fixed half-sine trajectory; the hip lets the springs take the impact.
+    const double elapsed = config_.reflex_duration_s - reflex_time_left_;
+    const double u = std::clamp(elapsed / config_.reflex_duration_s, 0.0, 1.0);
+    action.extra_knee_flexion = config_.reflex_knee_flexion_rad * std::sin(std::numbers::pi * u);
+    action.hip_passive = config_.reflex_hip_passive;
+    action.activity.early_touchdown = true;
+    reflex_time_left_ -= dt_s;
+  }
+  if (early_flex_start_ >= 0.0) action.knee_flex_start = early_flex_start_;
+  return action;
+}
+
+}  // namespace cpgmatch

@@ -1,0 +1,220 @@
+#include "cpgmatch/rollout.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/yaml_reader.hpp"
+
+namespace cpgmatch {
+namespace {
+
+int divider(double base_rate_hz, double rate_hz, const char* what) {
+  const double ratio = base_rate_hz / rate_hz;
+  const long rounded = std::lround(ratio);
+  if (rounded < 1 || std::abs(ratio - rounded) > 1e-6) {
+    throw InputError(fmt::format("{} rate {} Hz must divide the physics rate {} Hz", what, rate_hz, base_rate_hz));
+  }
+  return static_cast<int>(rounded);
+}
+
+bool finite_state(const PlantState& s) {
+  return std::isfinite(s.trunk.x_m) && std::isfinite(s.trunk.height_m) && std::isfinite(s.trunk.pitch_rad);
+}
+
+}  // namespace
+
+RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const RolloutSettings& settings,
+                          std::uint64_t seed, const TraceSink& trace) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  validate(params);
+  const double dt = plant.time_step_s();
+  const double physics_rate = 1.0 / dt;
+  const int control_every = divider(physics_rate, settings.controller.control_rate_hz, "control");
+  const int contact_every = divider(physics_rate, settings.contact_sensor.poll_rate_hz, "contact polling");
+  const long total_steps = std::lround((settings.entrain_s + settings.eval_s) / dt);
+  const long eval_start_step = std::lround(settings.entrain_s / dt);
+  const double total_time = settings.entrain_s + settings.eval_s;
+
+  CpgController controller(params, settings.controller);
+  ContactSensor sensor(settings.contact_sensor, seed);
+  CostRecorder recorder(settings.cost);
+  RolloutResult result;
+  result.params = params;
+
+  PerLeg<bool> contacts{};
+  ControllerOutput output;
+  const double start_height = plant.state().trunk.height_m;
+  for (long step = 0; step < total_steps; ++step) {
+    const bool poll = step % contact_every == 0;
+    const bool control = step % control_every == 0;
+    if (poll || control) {
+      const PlantState state = plant.state();
+      if (poll) {
+        PerLeg<double> forces{};
+        for (int leg = 0; leg < kNumLegs; ++leg) forces[leg] = state.legs[leg].foot_normal_force_n;
+        contacts = sensor.poll(state.time_s, forces);
+      }
+      if (control) {
+        const bool fell = !finite_state(state) ||
+                          std::abs(state.trunk.pitch_rad) > settings.cost.fall_max_abs_pitch_rad ||
+                          state.trunk.height_m < std::min(settings.cost.fall_min_height_m, 0.5 * start_height);
+        if (fell) {
+          result.fell = true;
+          result.fall_time_s = state.time_s;
+          break;
+        }
+        output = controller.update(contacts);
+        plant.command(output.commands);
+        if (step >= eval_start_step) {
+          CostSample sample;
+          sample.time_s = state.time_s;
+          sample.x_m = state.trunk.x_m;
+          sample.pitch_rad = state.trunk.pitch_rad;
+          sample.contact = contacts;
+          sample.activity = output.activity;
+          for (int leg = 0; leg < kNumLegs; ++leg) {
+            sample.abs_hip_torque_nm[leg] = std::abs(state.legs[leg].hip_torque_nm);
+            sample.abs_knee_torque_nm[leg] = std::abs(state.legs[leg].knee_torque_nm);
+          }
+          recorder.add(sample);
+        }
+        if (trace) trace(TraceSample{state.time_s, &state, &output, &contacts});
+      }
+    }
+    plant.advance(dt);
+  }
+
+  result.sim_time_s = plant.state().time_s;
+  result.breakdown = recorder.evaluate(params.frequency);
+  result.cost = result.fell ? recorder.fall_cost(result.fall_time_s, total_time) : result.breakdown.cost;
+  result.breakdown.cost = result.cost;
+  result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return result;
+}
+
+CpgParameters load_parameters(const std::string& path, CpgParameters base) {
+  const YamlReader reader = YamlReader::from_file(path);
+  // Accept either a flat mapping or one nested under `params:`.
+  const YamlReader map = reader.has("params") ? reader.child("params") : reader;
+  map.for_each_number([&](const std::string& key, double value, const std::string& origin) {
+    set_parameter(base, key, value, origin);
+  });
+  return base;
+}
+
+RolloutSettings load_rollout_settings(const std::string& path) {
+  const YamlReader r = YamlReader::from_file(path);
+  r.reject_unknown_keys({"entrain_s", "eval_s", "controller", "contact_sensor", "cost"});
+  RolloutSettings s;
+  s.entrain_s = r.get_double("entrain_s", s.entrain_s);
+  s.eval_s = r.get_double("eval_s", s.eval_s);
+  if (s.entrain_s < 0.0) r.fail("entrain_s", "must be >= 0");
+  if (s.eval_s <= 0.0) r.fail("eval_s", "must be > 0");
+
+  if (r.has("controller")) {
+    const YamlReader c = r.child("controller");
+    c.reject_unknown_keys({"gait", "coupling_gain_per_s", "control_rate_hz", "startup_ramp_s", "feedback"});
+    auto& cc = s.controller;
+    cc.gait = c.get_string("gait", cc.gait);
+    try {
+      (void)Gait::named(cc.gait);
+    } catch (const InputError& e) {
+      c.fail("gait", e.what());
+    }
+    cc.coupling_gain_per_s = c.get_double("coupling_gain_per_s", cc.coupling_gain_per_s);
+    cc.control_rate_hz = c.get_double("control_rate_hz", cc.control_rate_hz);
+    cc.startup_ramp_s = c.get_double("startup_ramp_s", cc.startup_ramp_s);
+    if (cc.control_rate_hz <= 0.0) c.fail("control_rate_hz", "must be > 0");
+    if (c.has("feedback")) {
+      const YamlReader f = c.child("feedback");
+      f.reject_unknown_keys({"late_touchdown", "early_touchdown", "early_toeoff", "late_toeoff_deceleration",
+                             "late_touchdown_phase_rate", "late_toeoff_phase_rate", "reflex_duration_s",
+                             "reflex_knee_flexion_rad", "reflex_hip_passive"});
+      auto& fb = cc.feedback;
+      fb.late_touchdown = f.get_bool("late_touchdown", fb.late_touchdown);
+      fb.early_touchdown = f.get_bool("early_touchdown", fb.early_touchdown);
+      fb.early_toeoff = f.get_bool("early_toeoff", fb.early_toeoff);
+      fb.late_toeoff_deceleration = f.get_bool("late_toeoff_deceleration", fb.late_toeoff_deceleration);
+      fb.late_touchdown_phase_rate = f.get_double("late_touchdown_phase_rate", fb.late_touchdown_phase_rate);
+      fb.late_toeoff_phase_rate = f.get_double("late_toeoff_phase_rate", fb.late_toeoff_phase_rate);
+      fb.reflex_duration_s = f.get_double("reflex_duration_s", fb.reflex_duration_s);
+      fb.reflex_knee_flexion_rad = f.get_double("reflex_knee_flexion_rad", fb.reflex_knee_flexion_rad);
+      fb.reflex_hip_passive = f.get_bool("reflex_hip_passive", fb.reflex_hip_passive);
+      for (const char* key : {"late_touchdown_phase_rate", "late_toeoff_phase_rate"}) {
+        const double v = f.get_double(key, 0.5);
+        if (v < 0.0 || v > 1.0) f.fail(key, "must be in [0, 1]");
+      }
+      if (fb.reflex_duration_s <= 0.0) f.fail("reflex_duration_s", "must be > 0");
+    }
+  }
+  if (r.has("contact_sensor")) {
+    const YamlReader c = r.child("contact_sensor");
+    c.reject_unknown_keys({"threshold_n", "poll_rate_hz", "noise_std_n", "latency_s"});
+    auto& cs = s.contact_sensor;
+    cs.threshold_n = c.get_double("threshold_n", cs.threshold_n);
+    cs.poll_rate_hz = c.get_double("poll_rate_hz", cs.poll_rate_hz);
+    cs.noise_std_n = c.get_double("noise_std_n", cs.noise_std_n);
+    cs.latency_s = c.get_double("latency_s", cs.latency_s);
+    if (cs.poll_rate_hz <= 0.0) c.fail("poll_rate_hz", "must be > 0");
+    if (cs.noise_std_n < 0.0) c.fail("noise_std_n", "must be >= 0");
+    if (cs.latency_s < 0.0) c.fail("latency_s", "must be >= 0");
+  }
+  if (r.has("cost")) {
+    const YamlReader c = r.child("cost");
+    c.reject_unknown_keys({"weights", "min_distance_m", "fall_max_abs_pitch_rad", "fall_min_height_m",
+                           "fall_cost_base", "fall_cost_per_lost_fraction"});
+    auto& cc = s.cost;
+    if (c.has("weights")) {
+      const YamlReader w = c.child("weights");
+      w.reject_unknown_keys({"feedback", "distance", "pitch", "contact", "periodicity"});
+      cc.weights.feedback = w.get_double("feedback", cc.weights.feedback);
+      cc.weights.distance = w.get_double("distance", cc.weights.distance);
+      cc.weights.pitch = w.get_double("pitch", cc.weights.pitch);
+      cc.weights.contact = w.get_double("contact", cc.weights.contact);
+      cc.weights.periodicity = w.get_double("periodicity", cc.weights.periodicity);
+    }
+    cc.min_distance_m = c.get_double("min_distance_m", cc.min_distance_m);
+    cc.fall_max_abs_pitch_rad = c.get_double("fall_max_abs_pitch_rad", cc.fall_max_abs_pitch_rad);
+    cc.fall_min_height_m = c.get_double("fall_min_height_m", cc.fall_min_height_m);
+    cc.fall_cost_base = c.get_double("fall_cost_base", cc.fall_cost_base);
+    cc.fall_cost_per_lost_fraction = c.get_double("fall_cost_per_lost_fraction", cc.fall_cost_per_lost_fraction);
+    if (cc.min_distance_m <= 0.0) c.fail("min_distance_m", "must be > 0");
+  }
+  return s;
+}
+
+TraceSink make_csv_trace(const std::string& path) {
+  auto out = std::make_shared<std::ofstream>(path);
+  if (!*out) throw InputError(fmt::format("{}: cannot open trace file for writing", path));
+  *out << "time_s,x_m,height_m,pitch_rad,vx_mps";
+  for (const auto& leg : kLegNames) {
+    *out << fmt::format(
+        ",{0}_phase,{0}_hip_target_rad,{0}_hip_rad,{0}_knee_target_rad,{0}_knee_rad,{0}_hip_torque_nm,"
+        "{0}_knee_torque_nm,{0}_foot_force_n,{0}_contact,{0}_ltd,{0}_etd,{0}_eto,{0}_lto",
+        leg);
+  }
+  *out << '\n';
+  return [out](const TraceSample& s) {
+    const auto& st = *s.state;
+    *out << fmt::format("{:.4f},{:.5f},{:.5f},{:.5f},{:.5f}", s.time_s, st.trunk.x_m, st.trunk.height_m,
+                        st.trunk.pitch_rad, st.trunk.vx_mps);
+    for (int leg = 0; leg < kNumLegs; ++leg) {
+      const auto& cmd = s.output->commands[leg];
+      const auto& ls = st.legs[leg];
+      const auto& a = s.output->activity[leg];
+      *out << fmt::format(",{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{:d},{:d},{:d},{:d},{:d}",
+                          s.output->phases[leg], cmd.hip_angle_rad, ls.hip_angle_rad, cmd.knee_flexion_rad,
+                          ls.knee_flexion_rad, ls.hip_torque_nm, ls.knee_torque_nm, ls.foot_normal_force_n,
+                          (*s.contacts)[leg], a.late_touchdown, a.early_touchdown, a.early_toeoff,
+                          a.late_toeoff);
+    }
+    *out << '\n';
+  };
+}
+
+}  // namespace cpgmatch

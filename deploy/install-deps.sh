@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package cpgmatch needs to build, test and run.
+# Idempotent: packages already installed are skipped, so a second run is quick and offline.
+# Runs as root, through sudo otherwise; says clearly when neither is possible.
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  cmake g++ make pkg-config
+  # transport
+  libfastrtps-dev fastddsgen fastdds-tools
+  # science: linear algebra, physics, optimisation, quasi-random sequences
+  libeigen3-dev libode-dev libnlopt-dev libnlopt-cxx-dev libceres-dev libgsl-dev
+  # configuration, CLI, logging, JSON, storage
+  libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsqlite3-dev sqlite3
+  # tests, benchmarks, plots
+  libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
+)
+
+missing=()
+for pkg in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$pkg")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+if [ "$(id -u)" -eq 0 ]; then
+  SUDO=()
+elif command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then
+  SUDO=(sudo)
+else
+  echo "install-deps: need root to install: ${missing[*]}" >&2
+  echo "install-deps: run this script as root, or give this user password-less sudo." >&2
+  exit 1
+fi
+
+echo "install-deps: installing ${#missing[@]} package(s): ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+"${SUDO[@]}" apt-get update -q
+"${SUDO[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+echo "install-deps: done"

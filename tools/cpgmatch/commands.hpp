@@ -1,0 +1,22 @@
+// The subcommands of the `cpgmatch` executable; each file registers one with CLI11.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/sim/sim_rollout.hpp"
+
+namespace cpgmatch::cli {
+
+void add_rollout_command(CLI::App& app);
+
+// Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
+sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,
+                                const std::string& settings_file, const std::string& model_file,
+                                const std::string& terrain, std::uint64_t seed);
+
+}  // namespace cpgmatch::cli

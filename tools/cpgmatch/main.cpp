@@ -1,0 +1,25 @@
+// cpgmatch: the command-line front end. Bad input exits with code 2 and a message naming the field.
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "commands.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"cpgmatch: learn to match a CPG to a legged robot's natural dynamics"};
+  app.require_subcommand(1);
+  cpgmatch::cli::add_rollout_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : cpgmatch::kExitBadInput;
+  } catch (const cpgmatch::InputError& e) {
+    std::cerr << "error: " << e.what() << std::endl;
+    return cpgmatch::kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << std::endl;
+    return cpgmatch::kExitFailure;
+  }
+  return cpgmatch::kExitOk;
+}

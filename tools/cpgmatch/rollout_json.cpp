@@ -1,0 +1,37 @@
+#include "rollout_json.hpp"
+
+namespace cpgmatch::cli {
+
+nlohmann::json params_to_json(const CpgParameters& p) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [name, value] : to_map(p)) j[name] = value;
+  return j;
+}
+
+nlohmann::json to_json(const RolloutResult& r) {
+  const auto& b = r.breakdown;
+  return {
+      {"cost", r.cost},
+      {"terms",
+       {{"feedback", b.terms.feedback},
+        {"distance", b.terms.distance},
+        {"pitch", b.terms.pitch},
+        {"contact", b.terms.contact},
+        {"periodicity", b.terms.periodicity}}},
+      {"normalized_torque", b.normalized_torque},
+      {"fell", r.fell},
+      {"fall_time_s", r.fell ? nlohmann::json(r.fall_time_s) : nlohmann::json(nullptr)},
+      {"distance_m", b.distance_m},
+      {"mean_speed_mps", b.mean_speed_mps},
+      {"feedback_fraction",
+       {{"late_touchdown", b.feedback_fraction.late_touchdown},
+        {"early_touchdown", b.feedback_fraction.early_touchdown},
+        {"early_toeoff", b.feedback_fraction.early_toeoff},
+        {"late_toeoff", b.feedback_fraction.late_toeoff}}},
+      {"sim_time_s", r.sim_time_s},
+      {"wall_time_s", r.wall_time_s},
+      {"params", params_to_json(r.params)},
+  };
+}
+
+}  // namespace cpgmatch::cli

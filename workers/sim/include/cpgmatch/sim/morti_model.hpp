@@ -1,0 +1,66 @@
+// Mechanical model of Morti for the ODE plant: every mass, length, stiffness and motor limit.
+//
+// Values come from configs/model/morti.yaml, which documents the source of each number. The geometry is
+// the biarticular leg: hip -> femur -> knee -> shank -> ankle -> foot -> toe, with the foot held parallel
+// to the femur by the biarticular spring (the spring-loaded parallel mechanism), and the knee driven by
+// its motor through the monoarticular knee spring (series elastic).
+#pragma once
+
+#include <string>
+
+namespace cpgmatch::sim {
+
+struct SegmentModel {
+  double length_m = 0.12;
+  double mass_kg = 0.1;
+};
+
+struct MotorModel {
+  double stall_torque_nm = 4.0;      // torque limit at zero speed
+  double no_load_speed_rad_s = 12.0; // speed at which the available torque reaches zero
+  double kp_nm_per_rad = 40.0;       // position gain (hip: torque PD; knee: see knee_motor_bandwidth)
+  double kd_nm_s_per_rad = 0.6;      // damping gain of the hip PD
+};
+
+struct SpringModel {
+  double stiffness_nm_per_rad = 10.0;
+  double damping_nm_s_per_rad = 0.02;
+};
+
+struct ContactModel {
+  double friction = 0.8;
+  double stiffness_n_per_m = 5e4;
+  double damping_n_s_per_m = 150.0;
+};
+
+struct MortiModel {
+  double trunk_mass_kg = 3.0;
+  double trunk_length_m = 0.48;   // box length; hips sit at +-hip_spacing/2
+  double hip_spacing_m = 0.40;
+  double trunk_height_m = 0.05;
+  double trunk_depth_m = 0.15;
+  SegmentModel femur{0.12, 0.10};
+  SegmentModel shank{0.12, 0.08};
+  SegmentModel foot{0.07, 0.04};
+  double toe_radius_m = 0.012;
+  double femur_mount_angle_rad = 0.5;   // femur direction from straight down at hip angle 0; + forward
+  double knee_stand_flexion_rad = 1.0;  // knee flexion at knee target 0
+  double knee_min_flexion_rad = 0.2;
+  double knee_max_flexion_rad = 2.4;
+  double ankle_range_rad = 1.2;         // foot may deviate this much from parallel-to-femur
+  SpringModel knee_spring{15.0, 0.05};
+  SpringModel biarticular_spring{4.0, 0.01};
+  MotorModel hip_motor{4.0, 12.0, 40.0, 0.6};
+  MotorModel knee_motor{4.0, 12.0, 0.0, 0.0};
+  double knee_motor_bandwidth_per_s = 60.0;  // knee motor position loop: speed = bandwidth * error
+  ContactModel contact;
+  double physics_rate_hz = 1000.0;
+  double gravity_m_s2 = 9.81;
+
+  double total_mass_kg() const { return trunk_mass_kg + 4.0 * (femur.mass_kg + shank.mass_kg + foot.mass_kg); }
+};
+
+// Loads a model YAML; throws InputError naming the file, line and field on bad input.
+MortiModel load_morti_model(const std::string& path);
+
+}  // namespace cpgmatch::sim

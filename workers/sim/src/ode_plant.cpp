@@ -1,0 +1,346 @@
+#include "cpgmatch/sim/ode_plant.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <random>
+#include <vector>
+
+#include <ode/ode.h>
+
+namespace cpgmatch::sim {
+namespace {
+
+void init_ode_once() {
+  static std::once_flag flag;
+  std::call_once(flag, [] { dInitODE2(0); });
+  dAllocateODEDataForThread(dAllocateMaskAll);
+}
+
+// Direction of a segment at absolute angle a (radians from straight down, + forward/CCW).
+struct Vec2 {
+  double x, y;
+};
+Vec2 direction(double a) { return {std::sin(a), -std::cos(a)}; }
+
+double body_angle_z(dBodyID body) {
+  const dReal* q = dBodyGetQuaternion(body);
+  return 2.0 * std::atan2(q[3], q[0]);
+}
+
+// Torque a motor can give at joint speed w: the stall torque, falling linearly to zero at the no-load
+// speed when the motor is driving in the direction of motion (a DC motor's torque-speed line).
+double limit_torque(double torque, double speed, const MotorModel& m) {
+  const double available = m.stall_torque_nm * std::max(0.0, 1.0 - std::abs(speed) / m.no_load_speed_rad_s);
+  const bool motoring = torque * speed > 0.0;
+  const double cap = motoring ? available : m.stall_torque_nm;
+  return std::clamp(torque, -cap, cap);
+}
+
+constexpr int kMaxContactsPerToe = 3;
+
+}  // namespace
+
+struct OdePlant::Impl {
+  struct LegBodies {
+    dBodyID femur, shank, foot;
+    dJointID hip, knee, ankle;
+    dGeomID toe;
+    double knee_motor_flexion = 0.0;  // absolute flexion of the knee motor's output (spring rest)
+    double hip_torque = 0.0;
+    double knee_torque = 0.0;
+    double normal_force = 0.0;
+  };
+
+  MortiModel model;
+  TerrainSpec terrain;
+  dWorldID world = nullptr;
+  dSpaceID terrain_space = nullptr;
+  dJointGroupID contact_group = nullptr;
+  dBodyID trunk = nullptr;
+  dJointID rail = nullptr;
+  PerLeg<LegBodies> legs{};
+  PerLeg<JointCommand> commands{};
+  std::vector<dJointFeedback> contact_feedback;
+  struct ActiveContact {
+    int leg;
+    double normal[3];
+  };
+  std::vector<ActiveContact> contacts_this_step;
+  double time = 0.0;
+  double dt = 0.001;
+
+  Impl(const MortiModel& m, const TerrainSpec& t, std::uint64_t seed) : model(m), terrain(t) {
+    init_ode_once();
+    dt = 1.0 / model.physics_rate_hz;
+    world = dWorldCreate();
+    dWorldSetGravity(world, 0, -model.gravity_m_s2, 0);
+    dWorldSetERP(world, 0.2);
+    dWorldSetCFM(world, 1e-9);
+    dWorldSetContactSurfaceLayer(world, 0.0002);
+    contact_group = dJointGroupCreate(0);
+    terrain_space = dHashSpaceCreate(nullptr);
+    build_terrain(seed);
+    build_robot();
+    contact_feedback.resize(kNumLegs * kMaxContactsPerToe);
+  }
+
+  ~Impl() {
+    dJointGroupDestroy(contact_group);
+    dSpaceDestroy(terrain_space);  // destroys the terrain geoms it holds
+    for (auto& leg : legs) dGeomDestroy(leg.toe);
+    dWorldDestroy(world);
+  }
+
+  void add_static_box(double x_min, double x_max, double top_y, double bottom_y) {
+    dGeomID box = dCreateBox(terrain_space, x_max - x_min, top_y - bottom_y, 2.0);
+    dGeomSetPosition(box, 0.5 * (x_min + x_max), 0.5 * (top_y + bottom_y), 0.0);
+  }
+
+  void build_terrain(std::uint64_t seed) {
+    switch (terrain.kind) {
+      case TerrainSpec::Kind::kFlat:
+        dCreatePlane(terrain_space, 0, 1, 0, 0);
+        break;
+      case TerrainSpec::Kind::kStep: {
+        const double h = terrain.step_height_m;
+        const double edge = terrain.step_distance_m;
+        if (h >= 0.0) {
+          dCreatePlane(terrain_space, 0, 1, 0, 0);
+          add_static_box(edge, edge + 200.0, h, -1.0);
+        } else {
+          dCreatePlane(terrain_space, 0, 1, 0, h);
+          add_static_box(-200.0, edge, 0.0, h - 1.0);
+        }
+        break;
+      }
+      case TerrainSpec::Kind::kRough: {
+        dCreatePlane(terrain_space, 0, 1, 0, 0);
+        std::mt19937_64 rng(seed ^ 0x5eedULL);
+        std::uniform_real_distribution<double> height(0.0, terrain.rough_amplitude_m);
+        const double tile = terrain.rough_tile_length_m;
+        for (double x = terrain.rough_start_m; x < terrain.rough_start_m + 40.0; x += tile) {
+          const double h = height(rng);
+          if (h > 1e-4) add_static_box(x, x + tile, h, -0.5);
+        }
+        break;
+      }
+    }
+  }
+
+  dBodyID make_segment(Vec2 start, double angle, const SegmentModel& seg) {
+    dBodyID body = dBodyCreate(world);
+    const Vec2 d = direction(angle);
+    dBodySetPosition(body, start.x + 0.5 * seg.length_m * d.x, start.y + 0.5 * seg.length_m * d.y, 0.0);
+    dMatrix3 R;
+    dRFromAxisAndAngle(R, 0, 0, 1, angle);
+    dBodySetRotation(body, R);
+    // A slender bar along the body's local -y axis.
+    dMass mass;
+    dMassSetBoxTotal(&mass, seg.mass_kg, 0.02, seg.length_m, 0.02);
+    dBodySetMass(body, &mass);
+    return body;
+  }
+
+  dJointID make_hinge(dBodyID a, dBodyID b, Vec2 anchor) {
+    dJointID j = dJointCreateHinge(world, nullptr);
+    dJointAttach(j, a, b);
+    dJointSetHingeAnchor(j, anchor.x, anchor.y, 0.0);
+    // ODE measures a hinge angle as body1's rotation relative to body2 about the axis; with the axis
+    // along -z the angle is body2's counter-clockwise rotation relative to body1, the convention used
+    // everywhere in cpgmatch (hip angle + = foot forward).
+    dJointSetHingeAxis(j, 0, 0, -1);
+    return j;
+  }
+
+  void build_robot() {
+    const double a0 = model.femur_mount_angle_rad;
+    const double b0 = model.knee_stand_flexion_rad;
+    const Vec2 df = direction(a0), ds = direction(a0 - b0), dp = direction(a0);
+    const double leg_drop = -(model.femur.length_m * df.y + model.shank.length_m * ds.y + model.foot.length_m * dp.y);
+    const double hip_height = leg_drop + model.toe_radius_m + 0.001;
+
+    trunk = dBodyCreate(world);
+    dBodySetPosition(trunk, 0.0, hip_height, 0.0);
+    dMass tm;
+    dMassSetBoxTotal(&tm, model.trunk_mass_kg, model.trunk_length_m, model.trunk_height_m, model.trunk_depth_m);
+    dBodySetMass(trunk, &tm);
+    rail = dJointCreatePlane2D(world, nullptr);
+    dJointAttach(rail, trunk, nullptr);
+
+    for (int i = 0; i < kNumLegs; ++i) {
+      auto& leg = legs[i];
+      const Vec2 hip{(is_front(i) ? 0.5 : -0.5) * model.hip_spacing_m, hip_height};
+      const Vec2 knee{hip.x + model.femur.length_m * df.x, hip.y + model.femur.length_m * df.y};
+      const Vec2 ankle{knee.x + model.shank.length_m * ds.x, knee.y + model.shank.length_m * ds.y};
+      leg.femur = make_segment(hip, a0, model.femur);
+      leg.shank = make_segment(knee, a0 - b0, model.shank);
+      leg.foot = make_segment(ankle, a0, model.foot);
+      leg.hip = make_hinge(trunk, leg.femur, hip);
+      leg.knee = make_hinge(leg.femur, leg.shank, knee);
+      leg.ankle = make_hinge(leg.shank, leg.foot, ankle);
+      // Knee hinge angle = -(flexion - b0): stops keep the flexion inside its mechanical range.
+      dJointSetHingeParam(leg.knee, dParamLoStop, b0 - model.knee_max_flexion_rad);
+      dJointSetHingeParam(leg.knee, dParamHiStop, b0 - model.knee_min_flexion_rad);
+      dJointSetHingeParam(leg.ankle, dParamLoStop, -model.ankle_range_rad - 1.5);
+      dJointSetHingeParam(leg.ankle, dParamHiStop, model.ankle_range_rad + 1.5);
+      leg.toe = dCreateSphere(nullptr, model.toe_radius_m);
+      dGeomSetBody(leg.toe, leg.foot);
+      dGeomSetOffsetPosition(leg.toe, 0.0, -0.5 * model.foot.length_m, 0.0);
+      leg.knee_motor_flexion = b0;
+    }
+  }
+
+  double knee_flexion(const LegBodies& leg) const {
+    return model.knee_stand_flexion_rad - dJointGetHingeAngle(leg.knee);
+  }
+
+  void apply_actuators() {
+    for (int i = 0; i < kNumLegs; ++i) {
+      auto& leg = legs[i];
+      const JointCommand& cmd = commands[i];
+
+      // Hip: PD position controller within the motor's torque-speed envelope.
+      const double q = dJointGetHingeAngle(leg.hip);
+      const double qd = dJointGetHingeAngleRate(leg.hip);
+      double tau_hip = 0.0;
+      if (!cmd.hip_passive) {
+        const auto& m = model.hip_motor;
+        tau_hip = limit_torque(m.kp_nm_per_rad * (cmd.hip_angle_rad - q) - m.kd_nm_s_per_rad * qd, qd, m);
+      }
+      dJointAddHingeTorque(leg.hip, tau_hip);
+      leg.hip_torque = tau_hip;
+
+      // Knee: the motor positions the rest angle of the series knee spring. Its output moves at most at
+      // the no-load speed and is back-driven when the spring torque exceeds the stall torque.
+      const double beta = knee_flexion(leg);
+      const double beta_rate = -dJointGetHingeAngleRate(leg.knee);
+      const auto& km = model.knee_motor;
+      const double target = model.knee_stand_flexion_rad + cmd.knee_flexion_rad;
+      const double speed = std::clamp(model.knee_motor_bandwidth_per_s * (target - leg.knee_motor_flexion),
+                                      -km.no_load_speed_rad_s, km.no_load_speed_rad_s);
+      leg.knee_motor_flexion += speed * dt;
+      const double k = model.knee_spring.stiffness_nm_per_rad;
+      const double max_deflection = km.stall_torque_nm / k;
+      leg.knee_motor_flexion = std::clamp(leg.knee_motor_flexion, beta - max_deflection, beta + max_deflection);
+      const double spring_torque = k * (leg.knee_motor_flexion - beta);
+      const double flex_torque = spring_torque - model.knee_spring.damping_nm_s_per_rad * beta_rate;
+      dJointAddHingeTorque(leg.knee, -flex_torque);  // positive hinge torque extends the knee
+      leg.knee_torque = spring_torque;
+
+      // Biarticular spring: holds the foot parallel to the femur (the parallel mechanism's rest).
+      const double deviation = dJointGetHingeAngle(leg.knee) + dJointGetHingeAngle(leg.ankle);
+      const double deviation_rate = dJointGetHingeAngleRate(leg.knee) + dJointGetHingeAngleRate(leg.ankle);
+      const double tau_b = -model.biarticular_spring.stiffness_nm_per_rad * deviation -
+                           model.biarticular_spring.damping_nm_s_per_rad * deviation_rate;
+      dBodyAddTorque(leg.foot, 0, 0, tau_b);
+      dBodyAddTorque(leg.femur, 0, 0, -tau_b);
+    }
+  }
+
+  void collide() {
+    contacts_this_step.clear();
+    dContactGeom geoms[kMaxContactsPerToe];
+    const auto& c = model.contact;
+    const double erp = dt * c.stiffness_n_per_m / (dt * c.stiffness_n_per_m + c.damping_n_s_per_m);
+    const double cfm = 1.0 / (dt * c.stiffness_n_per_m + c.damping_n_s_per_m);
+    std::size_t fb_index = 0;
+    for (int i = 0; i < kNumLegs; ++i) {
+      legs[i].normal_force = 0.0;
+      const int n_geoms = dSpaceGetNumGeoms(terrain_space);
+      int used = 0;
+      for (int g = 0; g < n_geoms && used < kMaxContactsPerToe; ++g) {
+        dGeomID ground = dSpaceGetGeom(terrain_space, g);
+        const int n = dCollide(legs[i].toe, ground, kMaxContactsPerToe - used, &geoms[used], sizeof(dContactGeom));
+        used += n;
+      }
+      for (int k = 0; k < used; ++k) {
+        dContact contact{};
+        contact.geom = geoms[k];
+        contact.surface.mode = dContactApprox1 | dContactSoftERP | dContactSoftCFM;
+        contact.surface.mu = c.friction;
+        contact.surface.soft_erp = erp;
+        contact.surface.soft_cfm = cfm;
+        if (terrain.treadmill_speed_mps != 0.0) {
+          contact.surface.mode |= dContactMotion1 | dContactFDir1;
+          contact.fdir1[0] = 1.0;
+          contact.surface.motion1 = -terrain.treadmill_speed_mps;
+        }
+        dJointID j = dJointCreateContact(world, contact_group, &contact);
+        dJointAttach(j, legs[i].foot, nullptr);
+        if (fb_index < contact_feedback.size()) {
+          dJointSetFeedback(j, &contact_feedback[fb_index]);
+          contacts_this_step.push_back({i, {geoms[k].normal[0], geoms[k].normal[1], geoms[k].normal[2]}});
+          ++fb_index;
+        }
+      }
+    }
+  }
+
+  void read_contact_forces() {
+    for (std::size_t k = 0; k < contacts_this_step.size(); ++k) {
+      const ActiveContact& c = contacts_this_step[k];
+      const dJointFeedback& fb = contact_feedback[k];
+      // The contact normal points into the foot; the force on the foot along it is the normal force.
+      const double fn = fb.f1[0] * c.normal[0] + fb.f1[1] * c.normal[1] + fb.f1[2] * c.normal[2];
+      legs[c.leg].normal_force += std::max(0.0, fn);
+    }
+  }
+
+  // Plane2D allows tiny roll/yaw drift; project the trunk back onto pure pitch each step.
+  void project_trunk() {
+    const dReal* q = dBodyGetQuaternion(trunk);
+    const double norm = std::hypot(q[0], q[3]);
+    dQuaternion fixed{q[0] / norm, 0, 0, q[3] / norm};
+    dBodySetQuaternion(trunk, fixed);
+    const dReal* w = dBodyGetAngularVel(trunk);
+    dBodySetAngularVel(trunk, 0, 0, w[2]);
+  }
+
+  void step() {
+    apply_actuators();
+    collide();
+    dWorldStep(world, dt);
+    read_contact_forces();
+    dJointGroupEmpty(contact_group);
+    project_trunk();
+    time += dt;
+  }
+};
+
+OdePlant::OdePlant(const MortiModel& model, const TerrainSpec& terrain, std::uint64_t seed)
+    : impl_(std::make_unique<Impl>(model, terrain, seed)) {}
+
+OdePlant::~OdePlant() = default;
+
+void OdePlant::command(const PerLeg<JointCommand>& commands) { impl_->commands = commands; }
+
+void OdePlant::advance(double dt_s) {
+  const long steps = std::max(1L, std::lround(dt_s / impl_->dt));
+  for (long i = 0; i < steps; ++i) impl_->step();
+}
+
+double OdePlant::time_step_s() const { return impl_->dt; }
+
+PlantState OdePlant::state() const {
+  const Impl& m = *impl_;
+  PlantState s;
+  s.time_s = m.time;
+  const dReal* p = dBodyGetPosition(m.trunk);
+  const dReal* v = dBodyGetLinearVel(m.trunk);
+  s.trunk.x_m = p[0] + m.terrain.treadmill_speed_mps * m.time;
+  s.trunk.vx_mps = v[0] + m.terrain.treadmill_speed_mps;
+  s.trunk.height_m = p[1];
+  s.trunk.pitch_rad = body_angle_z(m.trunk);
+  for (int i = 0; i < kNumLegs; ++i) {
+    const auto& leg = m.legs[i];
+    s.legs[i].hip_angle_rad = dJointGetHingeAngle(leg.hip);
+    s.legs[i].knee_flexion_rad = m.knee_flexion(leg) - m.model.knee_stand_flexion_rad;
+    s.legs[i].hip_torque_nm = leg.hip_torque;
+    s.legs[i].knee_torque_nm = leg.knee_torque;
+    s.legs[i].foot_normal_force_n = leg.normal_force;
+  }
+  return s;
+}
+
+}  // namespace cpgmatch::sim
