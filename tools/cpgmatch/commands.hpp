@@ -13,6 +13,8 @@
 namespace cpgmatch::cli {
 
 void add_rollout_command(CLI::App& app);
+void add_bench_optimizer_command(CLI::App& app);
+void add_optimize_command(CLI::App& app);
 
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,

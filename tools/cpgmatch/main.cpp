@@ -9,6 +9,7 @@ int main(int argc, char** argv) {
   CLI::App app{"cpgmatch: learn to match a CPG to a legged robot's natural dynamics"};
   app.require_subcommand(1);
   cpgmatch::cli::add_rollout_command(app);
+  cpgmatch::cli::add_bench_optimizer_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,91 @@
+// Gaussian-process regression for Bayesian optimisation, as scikit-optimize configures it:
+//
+//   k(x, x') = amplitude * Matern52(r),  r^2 = sum_d (x_d - x'_d)^2 / l_d^2   (one length scale per dim)
+//   K = k(X, X) + noise * I
+//
+// Inputs are expected in the unit cube; outputs are standardised internally (zero mean, unit variance)
+// and predictions are returned in the original units. Hyperparameters (log amplitude, log length
+// scales, log noise) maximise the log marginal likelihood with analytic gradients (NLopt L-BFGS) from
+// the previous optimum plus random restarts. Predictions exclude the noise term (latent f), like
+// scikit-optimize. The Cholesky factorisation retries with growing jitter, so a posterior is never NaN.
+#pragma once
+
+#include <cstdint>
+#include <random>
+
+#include <Eigen/Core>
+#include <Eigen/Cholesky>
+
+namespace cpgmatch::bo {
+
+struct GpHyperparameters {
+  double log_amplitude = 0.0;
+  Eigen::VectorXd log_length_scales;
+  double log_noise = std::log(1e-2);
+
+  // Packs into [log_amplitude, log_length_scales..., log_noise].
+  Eigen::VectorXd pack() const;
+  static GpHyperparameters unpack(const Eigen::VectorXd& theta);
+};
+
+struct GpOptions {
+  // Hyperparameter bounds (scikit-optimize: amplitude 0.01..1000, length scales 0.01..100).
+  double min_amplitude = 0.01, max_amplitude = 1000.0;
+  double min_length_scale = 0.01, max_length_scale = 100.0;
+  double min_noise = 1e-10, max_noise = 1.0;  // standardised units; tiny floor so deterministic objectives are resolved finely
+  int random_restarts = 2;
+  int max_evaluations = 200;  // per local L-BFGS run
+};
+
+struct Prediction {
+  double mean = 0.0;
+  double std = 0.0;
+};
+
+class GaussianProcess {
+ public:
+  explicit GaussianProcess(GpOptions options = {});
+
+  // Fits to X (n x d, rows are points in the unit cube) and y (n). Hyperparameters are optimised when
+  // `optimise` is true (starting from `start` if given, plus options.random_restarts random starts
+  // drawn from `rng`); otherwise `start` is used as is.
+  void fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, bool optimise, std::mt19937_64& rng,
+           const GpHyperparameters* start = nullptr);
+
+  // Refactorises with the current hyperparameters after the data changed (used for constant-liar batches).
+  void refit_fixed(const Eigen::MatrixXd& X, const Eigen::VectorXd& y);
+
+  Prediction predict(const Eigen::VectorXd& x) const;
+  // Mean and std with their gradients with respect to x.
+  Prediction predict_with_gradient(const Eigen::VectorXd& x, Eigen::VectorXd* dmean, Eigen::VectorXd* dstd) const;
+  // Means and stds for many points at once (columns of C): one triangular solve for all.
+  void predict_many(const Eigen::MatrixXd& C, Eigen::VectorXd* mean, Eigen::VectorXd* std) const;
+
+  // Log marginal likelihood of the standardised data at theta; fills grad (d/dtheta) when non-null.
+  double log_marginal_likelihood(const Eigen::VectorXd& theta, Eigen::VectorXd* grad) const;
+
+  const GpHyperparameters& hyperparameters() const { return hyper_; }
+  bool fitted() const { return n_ > 0; }
+  int num_points() const { return n_; }
+  double jitter() const { return jitter_; }
+
+ private:
+  // Kernel matrix between the rows of A and the rows of B (without noise).
+  Eigen::MatrixXd kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h) const;
+  void factorise();
+  Eigen::VectorXd lower_bounds(int d) const;
+  Eigen::VectorXd upper_bounds(int d) const;
+
+  GpOptions options_;
+  GpHyperparameters hyper_;
+  Eigen::MatrixXd X_;
+  Eigen::VectorXd y_std_;  // standardised targets
+  double y_mean_ = 0.0;
+  double y_scale_ = 1.0;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::VectorXd alpha_;  // K^-1 y_std
+  double jitter_ = 0.0;
+  int n_ = 0;
+};
+
+}  // namespace cpgmatch::bo

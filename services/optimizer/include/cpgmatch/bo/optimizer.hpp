@@ -1,0 +1,124 @@
+// Bayesian optimisation with an ask/tell interface, batch proposals and gp_hedge, shaped for a
+// distributed service where many workers evaluate points and results arrive in any order.
+//
+//   BayesianOptimizer opt(space, options);
+//   auto batch = opt.ask(4);                 // four distinct points for four idle workers
+//   opt.tell(batch[2], 1.7);                 // results in any order
+//   opt.tell_failure(batch[0]);              // a crashed or timed-out evaluation
+//   auto next = opt.ask(1, {batch[1], batch[3]});   // pass the points still being evaluated
+//
+// State changes only in tell()/tell_failure(): each one refits the GP (hyperparameters by marginal
+// likelihood) and, as in scikit-optimize, optimises every acquisition of the portfolio and updates the
+// gp_hedge gains with the new model's mean at the previous proposals. ask() is a pure function of that
+// state and the pending points, with randomness seeded by (seed, number of points issued). Therefore
+// replaying the observation list through tell() rebuilds exactly the same optimizer (rebuild()).
+//
+// Batches use the constant liar: each pending or newly chosen point is added to the GP with a fake
+// result (min, mean or max of the observations; hyperparameters kept) before the next point is chosen.
+//
+// Failed evaluations are kept and enter the GP with the worst successful cost observed so far
+// (re-imputed at every fit), which pushes the search away from them without inventing a scale.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "cpgmatch/bo/acquisition.hpp"
+#include "cpgmatch/bo/gaussian_process.hpp"
+#include "cpgmatch/bo/initial_design.hpp"
+#include "cpgmatch/bo/search_space.hpp"
+
+namespace cpgmatch::bo {
+
+enum class LiarStrategy { kMin, kMean, kMax };
+std::string to_string(LiarStrategy s);
+LiarStrategy liar_from_string(std::string_view name);  // "min", "mean", "max" (also "cl_min", ...)
+
+struct OptimizerOptions {
+  int initial_points = 15;             // paper: 15 random rollouts before the model is used
+  InitialDesign initial_design = InitialDesign::kRandom;
+  Acquisition acquisition = Acquisition::kHedge;
+  double xi = 0.01;                    // EI/PI exploration margin, in objective units (scikit-optimize)
+  double kappa = 1.96;                 // LCB exploration weight (scikit-optimize)
+  double hedge_eta = 1.0;              // softmax temperature of gp_hedge
+  int acquisition_candidates = 2000;   // random points scored before local refinement
+  int acquisition_local_starts = 5;    // best candidates refined with L-BFGS
+  int acquisition_local_evaluations = 40;
+  LiarStrategy liar = LiarStrategy::kMin;
+  std::uint64_t seed = 0;
+  GpOptions gp;
+  // Hyperparameters: warm-started L-BFGS at every fit; random restarts at every k-th fit as well.
+  int hyperparameter_restart_every = 5;
+
+  // Throws InputError naming the first invalid field.
+  void validate() const;
+};
+
+struct Observation {
+  Eigen::VectorXd x;  // in the space's units
+  double y = 0.0;     // meaningful only when !failed
+  bool failed = false;
+};
+
+struct HedgeState {
+  Eigen::Vector3d gains = Eigen::Vector3d::Zero();  // EI, LCB, PI (scikit-optimize's order)
+  Eigen::Vector3d probabilities() const;             // softmax(eta * (gains - max gains))
+  double eta = 1.0;
+};
+
+class BayesianOptimizer {
+ public:
+  BayesianOptimizer(SearchSpace space, OptimizerOptions options);
+
+  // n distinct points, avoiding `pending` (points issued but not yet told), in the space's units.
+  std::vector<Eigen::VectorXd> ask(int n, const std::vector<Eigen::VectorXd>& pending = {});
+
+  // Throws InputError for a point outside the space or a non-finite y (use tell_failure instead).
+  void tell(const Eigen::VectorXd& x, double y);
+  void tell_failure(const Eigen::VectorXd& x);
+
+  const std::vector<Observation>& observations() const { return observations_; }
+  std::optional<Observation> best() const;  // lowest successful y
+  int num_successful() const;
+  const HedgeState& hedge() const { return hedge_; }
+  const SearchSpace& space() const { return space_; }
+  const OptimizerOptions& options() const { return options_; }
+  const GaussianProcess& model() const { return gp_; }
+  bool model_ready() const { return gp_.fitted() && !next_proposals_.empty(); }
+
+  // Replays `observations` through tell(); the result proposes exactly what the original would.
+  static BayesianOptimizer rebuild(SearchSpace space, OptimizerOptions options,
+                                   const std::vector<Observation>& observations);
+
+ private:
+  struct Dataset {
+    Eigen::MatrixXd X;  // unit cube
+    Eigen::VectorXd y;
+  };
+  Dataset dataset() const;
+  void record(Observation obs);
+  void refit();
+  std::mt19937_64 rng_for(std::uint64_t counter, std::uint64_t purpose) const;
+  // Minimises one acquisition over the unit cube on the current GP.
+  Eigen::VectorXd optimise_acquisition(Acquisition a, double y_best, std::mt19937_64& rng) const;
+  std::vector<Eigen::VectorXd> ask_model(int n, const std::vector<Eigen::VectorXd>& pending, int issued);
+  bool is_duplicate(const Eigen::VectorXd& u, const Eigen::MatrixXd& taken) const;
+
+  SearchSpace space_;
+  OptimizerOptions options_;
+  Eigen::MatrixXd design_;  // initial design in the unit cube
+  std::vector<Observation> observations_;
+  GaussianProcess gp_;
+  GpHyperparameters last_hyper_;
+  bool have_hyper_ = false;
+  int fits_ = 0;
+  HedgeState hedge_;
+  std::vector<Eigen::VectorXd> next_proposals_;  // unit cube; per base acquisition (EI, LCB, PI) or one
+};
+
+}  // namespace cpgmatch::bo

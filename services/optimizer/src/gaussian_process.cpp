@@ -1,0 +1,252 @@
+#include "cpgmatch/bo/gaussian_process.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include <nlopt.hpp>
+
+namespace cpgmatch::bo {
+namespace {
+
+const double kSqrt5 = std::sqrt(5.0);
+
+double matern52(double r) { return (1.0 + kSqrt5 * r + 5.0 / 3.0 * r * r) * std::exp(-kSqrt5 * r); }
+
+}  // namespace
+
+Eigen::VectorXd GpHyperparameters::pack() const {
+  Eigen::VectorXd theta(log_length_scales.size() + 2);
+  theta[0] = log_amplitude;
+  theta.segment(1, log_length_scales.size()) = log_length_scales;
+  theta[theta.size() - 1] = log_noise;
+  return theta;
+}
+
+GpHyperparameters GpHyperparameters::unpack(const Eigen::VectorXd& theta) {
+  GpHyperparameters h;
+  h.log_amplitude = theta[0];
+  h.log_length_scales = theta.segment(1, theta.size() - 2);
+  h.log_noise = theta[theta.size() - 1];
+  return h;
+}
+
+GaussianProcess::GaussianProcess(GpOptions options) : options_(options) {}
+
+Eigen::MatrixXd GaussianProcess::kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                        const GpHyperparameters& h) const {
+  const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
+  const Eigen::MatrixXd As = A * inv_l.matrix().asDiagonal();
+  const Eigen::MatrixXd Bs = B * inv_l.matrix().asDiagonal();
+  const Eigen::VectorXd a2 = As.rowwise().squaredNorm();
+  const Eigen::VectorXd b2 = Bs.rowwise().squaredNorm();
+  Eigen::MatrixXd r2 = (-2.0 * As * Bs.transpose()).colwise() + a2;
+  r2.rowwise() += b2.transpose();
+  const double amp = std::exp(h.log_amplitude);
+  return r2.unaryExpr([amp](double v) { return amp * matern52(std::sqrt(std::max(v, 0.0))); });
+}
+
+Eigen::VectorXd GaussianProcess::lower_bounds(int d) const {
+  Eigen::VectorXd lb(d + 2);
+  lb[0] = std::log(options_.min_amplitude);
+  lb.segment(1, d).setConstant(std::log(options_.min_length_scale));
+  lb[d + 1] = std::log(options_.min_noise);
+  return lb;
+}
+
+Eigen::VectorXd GaussianProcess::upper_bounds(int d) const {
+  Eigen::VectorXd ub(d + 2);
+  ub[0] = std::log(options_.max_amplitude);
+  ub.segment(1, d).setConstant(std::log(options_.max_length_scale));
+  ub[d + 1] = std::log(options_.max_noise);
+  return ub;
+}
+
+double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Eigen::VectorXd* grad) const {
+  const GpHyperparameters h = GpHyperparameters::unpack(theta);
+  const int n = static_cast<int>(X_.rows());
+  const int d = static_cast<int>(X_.cols());
+  const Eigen::MatrixXd Kf = kernel(X_, X_, h);
+  Eigen::MatrixXd K = Kf;
+  const double noise = std::exp(h.log_noise);
+  K.diagonal().array() += noise;
+  Eigen::LLT<Eigen::MatrixXd> llt(K);
+  double jitter = 1e-10;
+  while (llt.info() != Eigen::Success && jitter < 1.0) {
+    K.diagonal().array() += jitter;
+    llt.compute(K);
+    jitter *= 10.0;
+  }
+  if (llt.info() != Eigen::Success) {
+    if (grad) grad->setZero(theta.size());
+    return -1e25;
+  }
+  const Eigen::VectorXd alpha = llt.solve(y_std_);
+  const Eigen::MatrixXd& L = llt.matrixLLT();
+  const double log_det = 2.0 * L.diagonal().array().log().sum();
+  const double lml = -0.5 * y_std_.dot(alpha) - 0.5 * log_det - 0.5 * n * std::log(2.0 * std::numbers::pi);
+  if (grad) {
+    grad->resize(theta.size());
+    // dLML/dtheta_j = 0.5 * sum(W .* dK/dtheta_j), W = alpha alpha^T - K^-1.
+    const Eigen::MatrixXd Kinv = llt.solve(Eigen::MatrixXd::Identity(n, n));
+    const Eigen::MatrixXd W = alpha * alpha.transpose() - Kinv;
+    (*grad)[0] = 0.5 * (W.array() * Kf.array()).sum();
+    (*grad)[d + 1] = 0.5 * noise * W.trace();
+    // For Matern 5/2: dk/dlog(l_j) = amp * 5/3 (1 + sqrt5 r) exp(-sqrt5 r) * (x_j - x'_j)^2 / l_j^2.
+    const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
+    const Eigen::MatrixXd Xs = X_ * inv_l.matrix().asDiagonal();
+    const double amp = std::exp(h.log_amplitude);
+    Eigen::MatrixXd common(n, n);
+    for (int a = 0; a < n; ++a) {
+      for (int b = a; b < n; ++b) {
+        const double r = (Xs.row(a) - Xs.row(b)).norm();
+        const double v = amp * 5.0 / 3.0 * (1.0 + kSqrt5 * r) * std::exp(-kSqrt5 * r) * W(a, b);
+        common(a, b) = v;
+        common(b, a) = v;
+      }
+    }
+    for (int j = 0; j < d; ++j) {
+      double s = 0.0;
+      for (int a = 0; a < n; ++a) {
+        for (int b = a + 1; b < n; ++b) {
+          const double diff = Xs(a, j) - Xs(b, j);
+          s += common(a, b) * diff * diff;
+        }
+      }
+      (*grad)[1 + j] = s;  // 0.5 * 2 * (upper triangle); the diagonal has zero distance
+    }
+  }
+  return lml;
+}
+
+void GaussianProcess::fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, bool optimise, std::mt19937_64& rng,
+                          const GpHyperparameters* start) {
+  X_ = X;
+  n_ = static_cast<int>(X.rows());
+  const int d = static_cast<int>(X.cols());
+  y_mean_ = y.mean();
+  const double var = n_ > 1 ? (y.array() - y_mean_).square().sum() / n_ : 0.0;
+  y_scale_ = var > 1e-300 ? std::sqrt(var) : 1.0;
+  y_std_ = (y.array() - y_mean_) / y_scale_;
+
+  GpHyperparameters initial;
+  if (start && start->log_length_scales.size() == d) {
+    initial = *start;
+  } else {
+    initial.log_amplitude = 0.0;
+    initial.log_length_scales = Eigen::VectorXd::Zero(d);  // length scale 1, as scikit-optimize starts
+    initial.log_noise = std::log(1e-2);
+  }
+  hyper_ = initial;
+
+  if (optimise && n_ >= 2) {
+    const Eigen::VectorXd lb = lower_bounds(d), ub = upper_bounds(d);
+    auto objective = [](unsigned n, const double* x, double* g, void* data) -> double {
+      const auto* self = static_cast<const GaussianProcess*>(data);
+      const Eigen::Map<const Eigen::VectorXd> theta(x, n);
+      Eigen::VectorXd grad;
+      const double v = self->log_marginal_likelihood(theta, g ? &grad : nullptr);
+      if (g) for (unsigned i = 0; i < n; ++i) g[i] = std::isfinite(grad[i]) ? grad[i] : 0.0;
+      return std::isfinite(v) ? v : -1e25;
+    };
+    std::vector<Eigen::VectorXd> starts{initial.pack().cwiseMax(lb).cwiseMin(ub)};
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (int k = 0; k < options_.random_restarts; ++k) {
+      Eigen::VectorXd t(d + 2);
+      for (int i = 0; i < d + 2; ++i) t[i] = lb[i] + unit(rng) * (ub[i] - lb[i]);
+      // Random restarts over the full box waste effort on absurd noise levels; keep noise small.
+      t[d + 1] = std::log(options_.min_noise) + unit(rng) * (std::log(1e-1) - std::log(options_.min_noise));
+      starts.push_back(t);
+    }
+    double best = -std::numeric_limits<double>::infinity();
+    Eigen::VectorXd best_theta = starts.front();
+    for (const auto& s : starts) {
+      nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(d + 2));
+      opt.set_lower_bounds(std::vector<double>(lb.data(), lb.data() + lb.size()));
+      opt.set_upper_bounds(std::vector<double>(ub.data(), ub.data() + ub.size()));
+      opt.set_max_objective(objective, this);
+      opt.set_maxeval(options_.max_evaluations);
+      opt.set_ftol_rel(1e-9);
+      std::vector<double> x(s.data(), s.data() + s.size());
+      double value = -std::numeric_limits<double>::infinity();
+      try {
+        opt.optimize(x, value);
+      } catch (const std::exception&) {
+        // NLopt throws on roundoff-limited stops; x still holds the best point it found.
+        value = log_marginal_likelihood(Eigen::Map<Eigen::VectorXd>(x.data(), x.size()), nullptr);
+      }
+      if (std::isfinite(value) && value > best) {
+        best = value;
+        best_theta = Eigen::Map<Eigen::VectorXd>(x.data(), x.size());
+      }
+    }
+    hyper_ = GpHyperparameters::unpack(best_theta);
+  }
+  factorise();
+}
+
+void GaussianProcess::refit_fixed(const Eigen::MatrixXd& X, const Eigen::VectorXd& y) {
+  X_ = X;
+  n_ = static_cast<int>(X.rows());
+  y_std_ = (y.array() - y_mean_) / y_scale_;  // keep the standardisation of the last full fit
+  factorise();
+}
+
+void GaussianProcess::factorise() {
+  Eigen::MatrixXd K = kernel(X_, X_, hyper_);
+  K.diagonal().array() += std::exp(hyper_.log_noise);
+  jitter_ = 0.0;
+  llt_.compute(K);
+  double add = 1e-10 * std::max(1.0, K.diagonal().mean());
+  while (llt_.info() != Eigen::Success) {
+    K.diagonal().array() += add;
+    jitter_ += add;
+    add *= 10.0;
+    llt_.compute(K);
+  }
+  alpha_ = llt_.solve(y_std_);
+}
+
+Prediction GaussianProcess::predict(const Eigen::VectorXd& x) const {
+  return predict_with_gradient(x, nullptr, nullptr);
+}
+
+Prediction GaussianProcess::predict_with_gradient(const Eigen::VectorXd& x, Eigen::VectorXd* dmean,
+                                                  Eigen::VectorXd* dstd) const {
+  const int d = static_cast<int>(x.size());
+  const double amp = std::exp(hyper_.log_amplitude);
+  const Eigen::ArrayXd inv_l2 = (-2.0 * hyper_.log_length_scales.array()).exp();
+  Eigen::VectorXd k(n_);
+  Eigen::MatrixXd dk(n_, d);  // dk_i/dx
+  for (int i = 0; i < n_; ++i) {
+    const Eigen::ArrayXd diff = x.array() - X_.row(i).transpose().array();
+    const double r = std::sqrt((diff.square() * inv_l2).sum());
+    const double e = std::exp(-kSqrt5 * r);
+    k[i] = amp * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r * r) * e;
+    if (dmean || dstd) dk.row(i) = (-amp * 5.0 / 3.0 * (1.0 + kSqrt5 * r) * e * diff * inv_l2).matrix().transpose();
+  }
+  Prediction p;
+  const double mean_std = k.dot(alpha_);
+  const Eigen::VectorXd Kinv_k = llt_.solve(k);
+  const double var = std::max(amp - k.dot(Kinv_k), 1e-12 * amp);
+  p.mean = y_mean_ + y_scale_ * mean_std;
+  p.std = y_scale_ * std::sqrt(var);
+  if (dmean) *dmean = y_scale_ * (dk.transpose() * alpha_);
+  if (dstd) {
+    const Eigen::VectorXd dvar = -2.0 * dk.transpose() * Kinv_k;
+    *dstd = y_scale_ * dvar / (2.0 * std::sqrt(var));
+  }
+  return p;
+}
+
+void GaussianProcess::predict_many(const Eigen::MatrixXd& C, Eigen::VectorXd* mean, Eigen::VectorXd* std) const {
+  const Eigen::MatrixXd Kc = kernel(X_, C.transpose(), hyper_);  // n x m
+  const double amp = std::exp(hyper_.log_amplitude);
+  *mean = (Kc.transpose() * alpha_).array() * y_scale_ + y_mean_;
+  const Eigen::MatrixXd V = llt_.matrixL().solve(Kc);
+  const Eigen::ArrayXd var = (amp - V.colwise().squaredNorm().transpose().array()).max(1e-12 * amp);
+  *std = y_scale_ * var.sqrt();
+}
+
+}  // namespace cpgmatch::bo

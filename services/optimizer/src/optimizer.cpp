@@ -1,0 +1,299 @@
+#include "cpgmatch/bo/optimizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include <fmt/format.h>
+#include <nlopt.hpp>
+
+#include "cpgmatch/errors.hpp"
+
+namespace cpgmatch::bo {
+namespace {
+
+constexpr Acquisition kPortfolio[3] = {Acquisition::kExpectedImprovement, Acquisition::kLowerConfidenceBound,
+                                       Acquisition::kProbabilityOfImprovement};
+enum Purpose : std::uint64_t { kAskPurpose = 1, kTellPurpose = 2, kFitPurpose = 3 };
+
+}  // namespace
+
+std::string to_string(LiarStrategy s) {
+  switch (s) {
+    case LiarStrategy::kMin: return "min";
+    case LiarStrategy::kMean: return "mean";
+    case LiarStrategy::kMax: return "max";
+  }
+  return "?";
+}
+
+LiarStrategy liar_from_string(std::string_view name) {
+  if (name == "min" || name == "cl_min") return LiarStrategy::kMin;
+  if (name == "mean" || name == "cl_mean") return LiarStrategy::kMean;
+  if (name == "max" || name == "cl_max") return LiarStrategy::kMax;
+  throw InputError(fmt::format("unknown liar strategy '{}' (known: min, mean, max)", name));
+}
+
+void OptimizerOptions::validate() const {
+  if (initial_points < 1) throw InputError(fmt::format("initial_points must be >= 1, got {}", initial_points));
+  if (!(xi >= 0.0) || !std::isfinite(xi)) throw InputError("xi must be a finite number >= 0");
+  if (!(kappa >= 0.0) || !std::isfinite(kappa)) throw InputError("kappa must be a finite number >= 0");
+  if (!(hedge_eta > 0.0) || !std::isfinite(hedge_eta)) throw InputError("hedge_eta must be > 0");
+  if (acquisition_candidates < 1) throw InputError("acquisition_candidates must be >= 1");
+  if (acquisition_local_starts < 0) throw InputError("acquisition_local_starts must be >= 0");
+  if (hyperparameter_restart_every < 1) throw InputError("hyperparameter_restart_every must be >= 1");
+}
+
+Eigen::Vector3d HedgeState::probabilities() const {
+  const Eigen::Vector3d logits = eta * (gains.array() - gains.maxCoeff()).matrix();
+  const Eigen::Vector3d e = logits.array().exp();
+  return e / e.sum();
+}
+
+BayesianOptimizer::BayesianOptimizer(SearchSpace space, OptimizerOptions options)
+    : space_(std::move(space)), options_(options), gp_(options.gp) {
+  options_.validate();
+  design_ = make_initial_design(options_.initial_design, options_.initial_points, space_.size(), options_.seed);
+  hedge_.eta = options_.hedge_eta;
+}
+
+std::mt19937_64 BayesianOptimizer::rng_for(std::uint64_t counter, std::uint64_t purpose) const {
+  std::seed_seq seq{static_cast<std::uint32_t>(options_.seed), static_cast<std::uint32_t>(options_.seed >> 32),
+                    static_cast<std::uint32_t>(counter), static_cast<std::uint32_t>(purpose)};
+  return std::mt19937_64(seq);
+}
+
+int BayesianOptimizer::num_successful() const {
+  return static_cast<int>(std::count_if(observations_.begin(), observations_.end(),
+                                        [](const Observation& o) { return !o.failed; }));
+}
+
+std::optional<Observation> BayesianOptimizer::best() const {
+  std::optional<Observation> out;
+  for (const auto& o : observations_) {
+    if (!o.failed && (!out || o.y < out->y)) out = o;
+  }
+  return out;
+}
+
+BayesianOptimizer::Dataset BayesianOptimizer::dataset() const {
+  double worst = -std::numeric_limits<double>::infinity();
+  for (const auto& o : observations_) if (!o.failed) worst = std::max(worst, o.y);
+  Dataset d;
+  const int n = static_cast<int>(observations_.size());
+  d.X.resize(n, space_.size());
+  d.y.resize(n);
+  for (int i = 0; i < n; ++i) {
+    d.X.row(i) = space_.to_unit(observations_[i].x).transpose();
+    d.y[i] = observations_[i].failed ? worst : observations_[i].y;
+  }
+  return d;
+}
+
+void BayesianOptimizer::tell(const Eigen::VectorXd& x, double y) {
+  space_.check_point(x);
+  if (!std::isfinite(y)) {
+    throw InputError(fmt::format("tell: cost must be a finite number, got {} (use tell_failure for failed evaluations)", y));
+  }
+  record({x, y, false});
+}
+
+void BayesianOptimizer::tell_failure(const Eigen::VectorXd& x) {
+  space_.check_point(x);
+  record({x, 0.0, true});
+}
+
+void BayesianOptimizer::record(Observation obs) {
+  observations_.push_back(std::move(obs));
+  // The model is first used once the initial design has been evaluated (and needs two real values).
+  if (static_cast<int>(observations_.size()) >= options_.initial_points && num_successful() >= 2) refit();
+}
+
+void BayesianOptimizer::refit() {
+  const Dataset data = dataset();
+  auto fit_rng = rng_for(observations_.size(), kFitPurpose);
+  GpOptions gp_options = options_.gp;
+  const bool restart = !have_hyper_ || fits_ % options_.hyperparameter_restart_every == 0;
+  if (!restart) gp_options.random_restarts = 0;
+  gp_ = GaussianProcess(gp_options);
+  gp_.fit(data.X, data.y, true, fit_rng, have_hyper_ ? &last_hyper_ : nullptr);
+  last_hyper_ = gp_.hyperparameters();
+  have_hyper_ = true;
+  ++fits_;
+
+  // gp_hedge: reward each acquisition by minus the new model's mean at its previous proposal
+  // (in objective units, never reset or decayed: scikit-optimize's semantics).
+  if (options_.acquisition == Acquisition::kHedge && next_proposals_.size() == 3) {
+    for (int a = 0; a < 3; ++a) hedge_.gains[a] -= gp_.predict(next_proposals_[a]).mean;
+  }
+  const double y_best = data.y.minCoeff();
+  auto rng = rng_for(observations_.size(), kTellPurpose);
+  next_proposals_.clear();
+  if (options_.acquisition == Acquisition::kHedge) {
+    for (Acquisition a : kPortfolio) next_proposals_.push_back(optimise_acquisition(a, y_best, rng));
+  } else {
+    next_proposals_.push_back(optimise_acquisition(options_.acquisition, y_best, rng));
+  }
+}
+
+Eigen::VectorXd BayesianOptimizer::optimise_acquisition(Acquisition a, double y_best, std::mt19937_64& rng) const {
+  const int d = space_.size();
+  const int m = options_.acquisition_candidates;
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  Eigen::MatrixXd C(d, m);
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i < d; ++i) C(i, j) = unit(rng);
+  Eigen::VectorXd mean, std;
+  gp_.predict_many(C, &mean, &std);
+  std::vector<double> score(m);
+  for (int j = 0; j < m; ++j) score[j] = evaluate_acquisition(a, mean[j], std[j], y_best, options_.xi, options_.kappa).value;
+  std::vector<int> order(m);
+  std::iota(order.begin(), order.end(), 0);
+  const int starts = std::min(options_.acquisition_local_starts, m);
+  std::partial_sort(order.begin(), order.begin() + std::max(starts, 1), order.end(),
+                    [&](int l, int r) { return score[l] < score[r]; });
+
+  Eigen::VectorXd best_x = C.col(order[0]);
+  double best_value = score[order[0]];
+
+  struct Context {
+    const BayesianOptimizer* self;
+    Acquisition a;
+    double y_best;
+  } ctx{this, a, y_best};
+  auto objective = [](unsigned n, const double* x, double* g, void* data) -> double {
+    const auto* c = static_cast<const Context*>(data);
+    const Eigen::Map<const Eigen::VectorXd> u(x, n);
+    Eigen::VectorXd dmean, dstd;
+    const Prediction p = c->self->gp_.predict_with_gradient(u, g ? &dmean : nullptr, g ? &dstd : nullptr);
+    const AcquisitionValue v =
+        evaluate_acquisition(c->a, p.mean, p.std, c->y_best, c->self->options_.xi, c->self->options_.kappa);
+    if (g) {
+      for (unsigned i = 0; i < n; ++i) {
+        const double gi = v.d_mean * dmean[i] + v.d_std * dstd[i];
+        g[i] = std::isfinite(gi) ? gi : 0.0;
+      }
+    }
+    return std::isfinite(v.value) ? v.value : 1e300;
+  };
+  for (int s = 0; s < starts; ++s) {
+    nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(d));
+    opt.set_lower_bounds(0.0);
+    opt.set_upper_bounds(1.0);
+    opt.set_min_objective(objective, &ctx);
+    opt.set_maxeval(options_.acquisition_local_evaluations);
+    opt.set_xtol_abs(1e-9);
+    const Eigen::VectorXd start = C.col(order[s]);
+    std::vector<double> x(start.data(), start.data() + d);
+    double value = score[order[s]];
+    try {
+      opt.optimize(x, value);
+    } catch (const std::exception&) {
+      // Roundoff-limited stop: keep whatever point NLopt left in x, re-scored below.
+      const Eigen::Map<const Eigen::VectorXd> u(x.data(), d);
+      const Prediction p = gp_.predict(u);
+      value = evaluate_acquisition(a, p.mean, p.std, y_best, options_.xi, options_.kappa).value;
+    }
+    if (std::isfinite(value) && value < best_value) {
+      best_value = value;
+      best_x = Eigen::Map<Eigen::VectorXd>(x.data(), d).cwiseMax(0.0).cwiseMin(1.0);
+    }
+  }
+  return best_x;
+}
+
+bool BayesianOptimizer::is_duplicate(const Eigen::VectorXd& u, const Eigen::MatrixXd& taken) const {
+  for (int i = 0; i < taken.rows(); ++i) {
+    if ((taken.row(i).transpose() - u).norm() < 1e-6) return true;
+  }
+  return false;
+}
+
+std::vector<Eigen::VectorXd> BayesianOptimizer::ask(int n, const std::vector<Eigen::VectorXd>& pending) {
+  if (n < 0) throw InputError("ask: n must be >= 0");
+  for (const auto& p : pending) space_.check_point(p);
+  std::vector<Eigen::VectorXd> out;
+  int issued = static_cast<int>(observations_.size() + pending.size());
+  // Initial design first: row k of the design is the k-th point ever issued.
+  while (static_cast<int>(out.size()) < n && issued < options_.initial_points) {
+    out.push_back(space_.from_unit(design_.row(issued).transpose()));
+    ++issued;
+  }
+  if (static_cast<int>(out.size()) == n) return out;
+
+  std::vector<Eigen::VectorXd> busy = pending;
+  busy.insert(busy.end(), out.begin(), out.end());
+  if (!model_ready()) {
+    // Design exhausted by in-flight points but too few results for a model: seeded random points.
+    auto rng = rng_for(issued, kAskPurpose);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    while (static_cast<int>(out.size()) < n) {
+      Eigen::VectorXd u(space_.size());
+      for (int i = 0; i < u.size(); ++i) u[i] = unit(rng);
+      out.push_back(space_.from_unit(u));
+    }
+    return out;
+  }
+  const auto more = ask_model(n - static_cast<int>(out.size()), busy, issued);
+  out.insert(out.end(), more.begin(), more.end());
+  return out;
+}
+
+std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vector<Eigen::VectorXd>& busy, int issued) {
+  Dataset data = dataset();
+  const double lie = options_.liar == LiarStrategy::kMin    ? data.y.minCoeff()
+                     : options_.liar == LiarStrategy::kMean ? data.y.mean()
+                                                            : data.y.maxCoeff();
+  auto append = [&](const Eigen::VectorXd& u) {
+    data.X.conservativeResize(data.X.rows() + 1, Eigen::NoChange);
+    data.X.row(data.X.rows() - 1) = u.transpose();
+    data.y.conservativeResize(data.y.size() + 1);
+    data.y[data.y.size() - 1] = lie;
+  };
+  for (const auto& p : busy) append(space_.to_unit(p));
+
+  // The fitted model stays the reference for the hedge; lies go into a working copy.
+  const GaussianProcess fitted = gp_;
+  const bool lies_present = !busy.empty();
+  if (lies_present) gp_.refit_fixed(data.X, data.y);
+
+  std::vector<Eigen::VectorXd> out;
+  auto rng = rng_for(issued, kAskPurpose);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < n; ++k) {
+    int choice = 0;
+    if (options_.acquisition == Acquisition::kHedge) {
+      const Eigen::Vector3d p = hedge_.probabilities();
+      const double r = unit(rng);
+      choice = r < p[0] ? 0 : (r < p[0] + p[1] ? 1 : 2);
+    }
+    const Acquisition a = options_.acquisition == Acquisition::kHedge ? kPortfolio[choice] : options_.acquisition;
+    Eigen::VectorXd u;
+    if (k == 0 && !lies_present) {
+      u = next_proposals_[choice];  // computed at the last tell, exactly as scikit-optimize's ask()
+    } else {
+      u = optimise_acquisition(a, data.y.minCoeff(), rng);
+    }
+    if (is_duplicate(u, data.X)) {
+      for (int i = 0; i < u.size(); ++i) u[i] = unit(rng);
+    }
+    out.push_back(space_.from_unit(u));
+    append(u);
+    if (k + 1 < n) gp_.refit_fixed(data.X, data.y);
+  }
+  gp_ = fitted;
+  return out;
+}
+
+BayesianOptimizer BayesianOptimizer::rebuild(SearchSpace space, OptimizerOptions options,
+                                             const std::vector<Observation>& observations) {
+  BayesianOptimizer opt(std::move(space), options);
+  for (const auto& o : observations) {
+    if (o.failed) opt.tell_failure(o.x);
+    else opt.tell(o.x, o.y);
+  }
+  return opt;
+}
+
+}  // namespace cpgmatch::bo

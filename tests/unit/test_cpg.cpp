@@ -1,0 +1,113 @@
+// Phase locking, trajectory shapes and stance fraction of the CPG.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "cpgmatch/controller.hpp"
+#include "cpgmatch/cpg.hpp"
+#include "cpgmatch/errors.hpp"
+
+namespace cpgmatch {
+namespace {
+
+TEST(Cpg, PhaseLockingConvergesToEveryGaitsPhaseDifferences) {
+  for (const auto& name : Gait::names()) {
+    PhaseOscillatorNetwork net(Gait::named(name), 0.5);
+    net.reset({0.13, 0.71, 0.42, 0.95});  // far from every gait
+    const double initial = net.locking_error();
+    PerLeg<double> free{1, 1, 1, 1};
+    for (int i = 0; i < 5000; ++i) net.step(0.002, 1.0, free);  // 10 s at 500 Hz
+    EXPECT_GT(initial, 0.1) << name;
+    EXPECT_LT(net.locking_error(), 1e-3) << name;
+  }
+}
+
+TEST(Cpg, FreeRunningPhaseAdvancesAtTheStepFrequency) {
+  PhaseOscillatorNetwork net(Gait::named("trot"), 0.5);
+  PerLeg<double> free{1, 1, 1, 1};
+  for (int i = 0; i < 2500; ++i) net.step(0.002, 1.5, free);  // 5 s at 1.5 Hz -> 7.5 cycles
+  EXPECT_EQ(net.cycles()[0], 7);
+  EXPECT_NEAR(net.phases()[0], 0.5, 1e-6);
+}
+
+TEST(Cpg, DecelerationSlowsOnlyTheDeceleratedLegWhileCouplingPullsItBack) {
+  PhaseOscillatorNetwork net(Gait::named("trot"), 0.5);
+  for (int i = 0; i < 50; ++i) net.step(0.002, 1.0, {0.1, 1, 1, 1});
+  EXPECT_GT(net.locking_error(), 0.02);
+  for (int i = 0; i < 5000; ++i) net.step(0.002, 1.0, {1, 1, 1, 1});
+  EXPECT_LT(net.locking_error(), 1e-3);
+}
+
+TEST(Cpg, UnknownGaitIsAnInputError) { EXPECT_THROW(Gait::named("gallop"), InputError); }
+
+TEST(Trajectory, HipProfileHitsItsKeyPointsAndIsContinuous) {
+  const double D = 0.4, os = 0.2;
+  EXPECT_NEAR(hip_profile(0.0, D, os), 1.0, 1e-12);         // touchdown: front
+  EXPECT_NEAR(hip_profile(D, D, os), -1.0, 1e-12);          // toe-off: back
+  const double peak = D + (1 - D) * (1 - os);
+  EXPECT_NEAR(hip_profile(peak, D, os), 1.0 + os, 1e-12);   // overswing peak before retraction
+  EXPECT_NEAR(hip_profile(0.999999, D, os), 1.0, 1e-5);     // retracted back to +1 at touchdown
+  for (double phi = 0.0; phi < 1.0; phi += 1e-4) {
+    EXPECT_LT(std::abs(hip_profile(phi + 1e-4, D, os) - hip_profile(phi, D, os)), 0.01) << phi;
+  }
+}
+
+TEST(Trajectory, StanceFractionEqualsTheDutyFactor) {
+  // With the controller running free (contacts as scheduled), the fraction of time each leg's hip moves
+  // backwards (stance) equals its duty factor.
+  CpgParameters p;
+  p.duty_factor_front = 0.35;
+  p.duty_factor_hind = 0.6;
+  p.overswing = 0.0;
+  ControllerConfig cfg;
+  cfg.startup_ramp_s = 0.0;
+  cfg.feedback = FeedbackConfig::none();
+  CpgController ctrl(p, cfg);
+  PerLeg<int> stance{}, total{};
+  PerLeg<double> last{};
+  bool first = true;
+  for (int i = 0; i < 5000; ++i) {
+    PerLeg<bool> scheduled{};
+    for (int leg = 0; leg < kNumLegs; ++leg) scheduled[leg] = ctrl.network().phases()[leg] < step_timing(p, leg).duty_factor;
+    const auto out = ctrl.update(scheduled);
+    for (int leg = 0; leg < kNumLegs; ++leg) {
+      if (!first) {
+        stance[leg] += out.commands[leg].hip_angle_rad < last[leg];
+        ++total[leg];
+      }
+      last[leg] = out.commands[leg].hip_angle_rad;
+    }
+    first = false;
+  }
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    const double expected = is_front(leg) ? 0.35 : 0.6;
+    EXPECT_NEAR(static_cast<double>(stance[leg]) / total[leg], expected, 0.01) << kLegNames[leg];
+  }
+}
+
+TEST(Trajectory, KneeFlexesOnlyInItsWindow) {
+  CpgParameters p;
+  const StepTiming t = step_timing(p, kFrontLeft);
+  EXPECT_EQ(knee_profile(t.knee_flex_start - 0.01, t.knee_flex_start, t.retraction_start), 0.0);
+  EXPECT_EQ(knee_profile(t.retraction_start + 0.01, t.knee_flex_start, t.retraction_start), 0.0);
+  EXPECT_NEAR(knee_profile(0.5 * (t.knee_flex_start + t.retraction_start), t.knee_flex_start, t.retraction_start), 1.0, 1e-12);
+}
+
+TEST(Parameters, BadValuesAreRejectedByName) {
+  CpgParameters p;
+  EXPECT_THROW(set_parameter(p, "duty_factor_front", 0.95), InputError);
+  EXPECT_THROW(set_parameter(p, "duty_factor_front", std::nan("")), InputError);
+  EXPECT_THROW(set_parameter(p, "hip_ofset", 0.1), InputError);
+  EXPECT_THROW(apply_assignment(p, "overswing=abc"), InputError);
+  try {
+    apply_assignment(p, "overswing=0.9");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("overswing"), std::string::npos);
+  }
+  apply_assignment(p, "overswing=0.3");
+  EXPECT_EQ(p.overswing, 0.3);
+}
+
+}  // namespace
+}  // namespace cpgmatch

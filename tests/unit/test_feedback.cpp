@@ -1,0 +1,109 @@
+// Each feedback mechanism fires on its synthetic contact sequence, and only then.
+#include <functional>
+
+#include <gtest/gtest.h>
+
+#include "cpgmatch/feedback.hpp"
+
+namespace cpgmatch {
+namespace {
+
+// Drives one leg's feedback through two cycles at 1 Hz (500 Hz ticks) with contact given as a
+// function of phase, and counts the ticks each mechanism was active in the second cycle.
+struct Counts {
+  int ltd = 0, etd = 0, eto = 0, lto = 0;
+  double min_rate = 1.0;
+  bool hip_passive = false;
+};
+
+Counts run(const std::function<bool(double)>& contact_at, FeedbackConfig cfg = {}) {
+  CpgParameters p;
+  p.duty_factor_front = 0.5;
+  p.knee_phase_shift = 0.2;
+  p.overswing = 0.2;
+  const StepTiming t = step_timing(p, kFrontLeft);  // D 0.5, knee flex 0.4, retraction 0.9
+  LegFeedback fb(cfg);
+  Counts c;
+  double phase = 0.0;
+  for (int tick = 0; tick < 1500; ++tick) {
+    const auto a = fb.update(phase, contact_at(phase), 0.002, t);
+    if (tick >= 500) {
+      c.ltd += a.activity.late_touchdown;
+      c.etd += a.activity.early_touchdown;
+      c.eto += a.activity.early_toeoff;
+      c.lto += a.activity.late_toeoff;
+      c.min_rate = std::min(c.min_rate, a.phase_rate);
+      c.hip_passive = c.hip_passive || a.hip_passive;
+    }
+    phase += 0.002 * a.phase_rate;
+    if (phase >= 1.0) phase -= 1.0;
+  }
+  return c;
+}
+
+TEST(Feedback, NominalContactPatternTriggersNothing) {
+  const Counts c = run([](double phi) { return phi < 0.5; });
+  EXPECT_EQ(c.ltd + c.etd + c.eto + c.lto, 0);
+  EXPECT_EQ(c.min_rate, 1.0);
+}
+
+TEST(Feedback, LateTouchdownDeceleratesThePhaseUntilContact) {
+  // Ground arrives only at phase 0.1 instead of 0: the leg waits.
+  const Counts c = run([](double phi) { return phi >= 0.1 && phi < 0.5; });
+  EXPECT_GT(c.ltd, 0);
+  EXPECT_LT(c.min_rate, 1.0);
+  EXPECT_EQ(c.etd + c.eto + c.lto, 0);
+}
+
+TEST(Feedback, EarlyTouchdownTriggersTheKneeReflexWithAPassiveHip) {
+  // Lifts off at 0.5 as planned, then hits the ground at 0.7, long before retraction (0.9).
+  const Counts c = run([](double phi) { return phi < 0.5 || (phi >= 0.7 && phi < 0.75); });
+  EXPECT_GT(c.etd, 0);
+  EXPECT_TRUE(c.hip_passive);
+  EXPECT_EQ(c.ltd + c.eto + c.lto, 0);
+}
+
+TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
+  // Contact lost at 0.25, before the knee was due to flex at 0.4.
+  CpgParameters p;
+  p.duty_factor_front = 0.5;
+  p.knee_phase_shift = 0.2;
+  p.overswing = 0.2;
+  const StepTiming t = step_timing(p, kFrontLeft);
+  LegFeedback fb;
+  double phase = 0.0, flex_start = -1.0;
+  int eto = 0;
+  for (int tick = 0; tick < 1000; ++tick) {
+    const bool contact = phase < 0.25 || phase >= 0.999;
+    const auto a = fb.update(phase, contact, 0.002, t);
+    if (tick >= 500 && a.activity.early_toeoff) {
+      ++eto;
+      flex_start = a.knee_flex_start;
+    }
+    EXPECT_FALSE(a.activity.late_touchdown || a.activity.early_touchdown || a.activity.late_toeoff);
+    phase += 0.002 * a.phase_rate;
+    if (phase >= 1.0) phase -= 1.0;
+  }
+  EXPECT_GT(eto, 0);
+  EXPECT_NEAR(flex_start, 0.25, 0.01);
+}
+
+TEST(Feedback, LateToeoffIsMeasuredAndDeceleratesOnlyWhenConfigured) {
+  const auto late = [](double phi) { return phi < 0.6; };  // still on the ground after 0.5
+  const Counts measured = run(late);
+  EXPECT_GT(measured.lto, 0);
+  EXPECT_EQ(measured.min_rate, 1.0);
+  EXPECT_EQ(measured.ltd + measured.etd + measured.eto, 0);
+  FeedbackConfig cfg;
+  cfg.late_toeoff_deceleration = true;
+  EXPECT_LT(run(late, cfg).min_rate, 1.0);
+}
+
+TEST(Feedback, DisabledMechanismsDoNotAct) {
+  const Counts c = run([](double phi) { return phi >= 0.1 && phi < 0.5; }, FeedbackConfig::none());
+  EXPECT_EQ(c.ltd, 0);
+  EXPECT_EQ(c.min_rate, 1.0);
+}
+
+}  // namespace
+}  // namespace cpgmatch

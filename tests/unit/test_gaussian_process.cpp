@@ -1,0 +1,135 @@
+// GP posterior and marginal likelihood against hand computations and finite differences.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "cpgmatch/bo/gaussian_process.hpp"
+
+namespace cpgmatch::bo {
+namespace {
+
+double matern52(double r) { return (1 + std::sqrt(5.0) * r + 5.0 / 3.0 * r * r) * std::exp(-std::sqrt(5.0) * r); }
+
+TEST(GaussianProcess, PosteriorMatchesHandComputedTwoPointCase) {
+  // Two 1-D points, amplitude 1, length scale 0.5, noise 1e-4; y = [1, -1] has mean 0 and std 1, so the
+  // standardised targets equal the raw ones.
+  Eigen::MatrixXd X(2, 1);
+  X << 0.2, 0.7;
+  Eigen::VectorXd y(2);
+  y << 1.0, -1.0;
+  GpHyperparameters h;
+  h.log_amplitude = 0.0;
+  h.log_length_scales = Eigen::VectorXd::Constant(1, std::log(0.5));
+  h.log_noise = std::log(1e-4);
+  GaussianProcess gp;
+  std::mt19937_64 rng(0);
+  gp.fit(X, y, /*optimise=*/false, rng, &h);
+
+  const double x = 0.4;
+  const double k12 = matern52(0.5 / 0.5);
+  const double k1 = matern52(0.2 / 0.5), k2 = matern52(0.3 / 0.5);
+  // K = [[1+n, k12], [k12, 1+n]]; explicit 2x2 inverse.
+  const double a = 1.0 + 1e-4, det = a * a - k12 * k12;
+  const double inv11 = a / det, inv12 = -k12 / det;
+  const double alpha1 = inv11 * 1.0 + inv12 * -1.0, alpha2 = inv12 * 1.0 + inv11 * -1.0;
+  const double mean = k1 * alpha1 + k2 * alpha2;
+  const double var = 1.0 - (k1 * (inv11 * k1 + inv12 * k2) + k2 * (inv12 * k1 + inv11 * k2));
+
+  const Prediction p = gp.predict(Eigen::VectorXd::Constant(1, x));
+  EXPECT_NEAR(p.mean, mean, 1e-9);
+  EXPECT_NEAR(p.std, std::sqrt(var), 1e-9);
+}
+
+TEST(GaussianProcess, MarginalLikelihoodGradientMatchesFiniteDifferences) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Eigen::MatrixXd X(12, 3);
+  Eigen::VectorXd y(12);
+  for (int i = 0; i < 12; ++i) {
+    for (int j = 0; j < 3; ++j) X(i, j) = u(rng);
+    y[i] = std::sin(3 * X(i, 0)) + X(i, 1) * X(i, 2);
+  }
+  GaussianProcess gp;
+  gp.fit(X, y, false, rng);
+  Eigen::VectorXd theta(5);
+  theta << 0.3, std::log(0.4), std::log(0.9), std::log(0.2), std::log(1e-3);
+  Eigen::VectorXd grad;
+  gp.log_marginal_likelihood(theta, &grad);
+  for (int i = 0; i < theta.size(); ++i) {
+    const double h = 1e-6;
+    Eigen::VectorXd tp = theta, tm = theta;
+    tp[i] += h;
+    tm[i] -= h;
+    const double fd = (gp.log_marginal_likelihood(tp, nullptr) - gp.log_marginal_likelihood(tm, nullptr)) / (2 * h);
+    EXPECT_NEAR(grad[i], fd, 1e-4 * std::max(1.0, std::abs(fd))) << "theta[" << i << "]";
+  }
+}
+
+TEST(GaussianProcess, PredictionGradientMatchesFiniteDifferences) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Eigen::MatrixXd X(10, 2);
+  Eigen::VectorXd y(10);
+  for (int i = 0; i < 10; ++i) {
+    X(i, 0) = u(rng);
+    X(i, 1) = u(rng);
+    y[i] = std::cos(4 * X(i, 0)) * X(i, 1);
+  }
+  GaussianProcess gp;
+  gp.fit(X, y, true, rng);
+  Eigen::VectorXd x(2);
+  x << 0.33, 0.61;
+  Eigen::VectorXd dm, ds;
+  gp.predict_with_gradient(x, &dm, &ds);
+  for (int i = 0; i < 2; ++i) {
+    const double h = 1e-6;
+    Eigen::VectorXd xp = x, xm = x;
+    xp[i] += h;
+    xm[i] -= h;
+    EXPECT_NEAR(dm[i], (gp.predict(xp).mean - gp.predict(xm).mean) / (2 * h), 1e-5);
+    EXPECT_NEAR(ds[i], (gp.predict(xp).std - gp.predict(xm).std) / (2 * h), 1e-5);
+  }
+}
+
+TEST(GaussianProcess, DuplicatePointsNeverGiveNaN) {
+  Eigen::MatrixXd X = Eigen::MatrixXd::Constant(6, 2, 0.5);  // six identical inputs: singular kernel
+  Eigen::VectorXd y(6);
+  y << 1, 2, 3, 1, 2, 3;
+  GaussianProcess gp(GpOptions{.min_noise = 1e-12});
+  std::mt19937_64 rng(1);
+  gp.fit(X, y, true, rng);
+  const Prediction p = gp.predict(Eigen::Vector2d(0.5, 0.5));
+  EXPECT_TRUE(std::isfinite(p.mean));
+  EXPECT_TRUE(std::isfinite(p.std));
+  Eigen::VectorXd mean, std;
+  gp.predict_many(Eigen::MatrixXd::Constant(2, 3, 0.25), &mean, &std);
+  EXPECT_TRUE(mean.allFinite());
+  EXPECT_TRUE(std.allFinite());
+}
+
+TEST(GaussianProcess, BatchPredictionEqualsSinglePrediction) {
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Eigen::MatrixXd X(15, 2);
+  Eigen::VectorXd y(15);
+  for (int i = 0; i < 15; ++i) {
+    X(i, 0) = u(rng);
+    X(i, 1) = u(rng);
+    y[i] = X(i, 0) - 2 * X(i, 1) * X(i, 1);
+  }
+  GaussianProcess gp;
+  gp.fit(X, y, true, rng);
+  Eigen::MatrixXd C(2, 4);
+  C << 0.1, 0.5, 0.9, 0.3, 0.2, 0.8, 0.4, 0.6;
+  Eigen::VectorXd mean, std;
+  gp.predict_many(C, &mean, &std);
+  for (int j = 0; j < 4; ++j) {
+    const Prediction p = gp.predict(C.col(j));
+    EXPECT_NEAR(mean[j], p.mean, 1e-9);
+    EXPECT_NEAR(std[j], p.std, 1e-9 + 1e-4 * p.std);  // round-off in 1 - k^T K^-1 k near data
+  }
+}
+
+}  // namespace
+}  // namespace cpgmatch::bo

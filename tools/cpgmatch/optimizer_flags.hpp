@@ -1,0 +1,26 @@
+// Optimizer flags shared by `optimize` and `bench-optimizer`.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include "cpgmatch/bo/optimizer.hpp"
+
+namespace cpgmatch::cli {
+
+struct OptimizerFlags {
+  int budget = 150;
+  int initial = 15;
+  std::string acquisition = "gp_hedge";
+  std::string design = "random";
+  std::string liar = "min";
+  std::uint64_t seed = 0;
+  int batch = 1;
+  bool quiet = false;
+  bool json = false;
+
+  void add_to(CLI::App* cmd);
+  // Validates and converts; throws InputError naming the flag.
+  bo::OptimizerOptions to_options() const;
+};
+
+}  // namespace cpgmatch::cli
