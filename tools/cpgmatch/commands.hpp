@@ -15,6 +15,11 @@ namespace cpgmatch::cli {
 void add_rollout_command(CLI::App& app);
 void add_bench_optimizer_command(CLI::App& app);
 void add_optimize_command(CLI::App& app);
+void add_eval_rollout_command(CLI::App& app);
+void add_study_command(CLI::App& app);
+
+// The command line that runs one rollout as a child process (`cpgmatch eval-rollout ...`).
+std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed, double entrain_s, double eval_s);
 
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,

@@ -10,6 +10,9 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   cpgmatch::cli::add_rollout_command(app);
   cpgmatch::cli::add_bench_optimizer_command(app);
+  cpgmatch::cli::add_optimize_command(app);
+  cpgmatch::cli::add_eval_rollout_command(app);
+  cpgmatch::cli::add_study_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

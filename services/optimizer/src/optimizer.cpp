@@ -115,7 +115,10 @@ void BayesianOptimizer::refit() {
   auto fit_rng = rng_for(observations_.size(), kFitPurpose);
   GpOptions gp_options = options_.gp;
   const bool restart = !have_hyper_ || fits_ % options_.hyperparameter_restart_every == 0;
-  if (!restart) gp_options.random_restarts = 0;
+  if (!restart) {
+    gp_options.random_restarts = 0;
+    gp_options.max_evaluations = options_.hyperparameter_warm_evaluations;
+  }
   gp_ = GaussianProcess(gp_options);
   gp_.fit(data.X, data.y, true, fit_rng, have_hyper_ ? &last_hyper_ : nullptr);
   last_hyper_ = gp_.hyperparameters();
@@ -129,15 +132,15 @@ void BayesianOptimizer::refit() {
   }
   const double y_best = data.y.minCoeff();
   auto rng = rng_for(observations_.size(), kTellPurpose);
-  next_proposals_.clear();
   if (options_.acquisition == Acquisition::kHedge) {
-    for (Acquisition a : kPortfolio) next_proposals_.push_back(optimise_acquisition(a, y_best, rng));
+    next_proposals_ = optimise_acquisitions({std::begin(kPortfolio), std::end(kPortfolio)}, y_best, rng);
   } else {
-    next_proposals_.push_back(optimise_acquisition(options_.acquisition, y_best, rng));
+    next_proposals_ = optimise_acquisitions({options_.acquisition}, y_best, rng);
   }
 }
 
-Eigen::VectorXd BayesianOptimizer::optimise_acquisition(Acquisition a, double y_best, std::mt19937_64& rng) const {
+std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std::vector<Acquisition>& acquisitions,
+                                                                      double y_best, std::mt19937_64& rng) const {
   const int d = space_.size();
   const int m = options_.acquisition_candidates;
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -146,22 +149,12 @@ Eigen::VectorXd BayesianOptimizer::optimise_acquisition(Acquisition a, double y_
     for (int i = 0; i < d; ++i) C(i, j) = unit(rng);
   Eigen::VectorXd mean, std;
   gp_.predict_many(C, &mean, &std);
-  std::vector<double> score(m);
-  for (int j = 0; j < m; ++j) score[j] = evaluate_acquisition(a, mean[j], std[j], y_best, options_.xi, options_.kappa).value;
-  std::vector<int> order(m);
-  std::iota(order.begin(), order.end(), 0);
-  const int starts = std::min(options_.acquisition_local_starts, m);
-  std::partial_sort(order.begin(), order.begin() + std::max(starts, 1), order.end(),
-                    [&](int l, int r) { return score[l] < score[r]; });
-
-  Eigen::VectorXd best_x = C.col(order[0]);
-  double best_value = score[order[0]];
 
   struct Context {
     const BayesianOptimizer* self;
     Acquisition a;
     double y_best;
-  } ctx{this, a, y_best};
+  };
   auto objective = [](unsigned n, const double* x, double* g, void* data) -> double {
     const auto* c = static_cast<const Context*>(data);
     const Eigen::Map<const Eigen::VectorXd> u(x, n);
@@ -177,30 +170,45 @@ Eigen::VectorXd BayesianOptimizer::optimise_acquisition(Acquisition a, double y_
     }
     return std::isfinite(v.value) ? v.value : 1e300;
   };
-  for (int s = 0; s < starts; ++s) {
-    nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(d));
-    opt.set_lower_bounds(0.0);
-    opt.set_upper_bounds(1.0);
-    opt.set_min_objective(objective, &ctx);
-    opt.set_maxeval(options_.acquisition_local_evaluations);
-    opt.set_xtol_abs(1e-9);
-    const Eigen::VectorXd start = C.col(order[s]);
-    std::vector<double> x(start.data(), start.data() + d);
-    double value = score[order[s]];
-    try {
-      opt.optimize(x, value);
-    } catch (const std::exception&) {
-      // Roundoff-limited stop: keep whatever point NLopt left in x, re-scored below.
-      const Eigen::Map<const Eigen::VectorXd> u(x.data(), d);
-      const Prediction p = gp_.predict(u);
-      value = evaluate_acquisition(a, p.mean, p.std, y_best, options_.xi, options_.kappa).value;
+
+  std::vector<Eigen::VectorXd> proposals;
+  for (const Acquisition a : acquisitions) {
+    std::vector<double> score(m);
+    for (int j = 0; j < m; ++j) score[j] = evaluate_acquisition(a, mean[j], std[j], y_best, options_.xi, options_.kappa).value;
+    std::vector<int> order(m);
+    std::iota(order.begin(), order.end(), 0);
+    const int starts = std::min(options_.acquisition_local_starts, m);
+    std::partial_sort(order.begin(), order.begin() + std::max(starts, 1), order.end(),
+                      [&](int l, int r) { return score[l] < score[r]; });
+    Eigen::VectorXd best_x = C.col(order[0]);
+    double best_value = score[order[0]];
+    Context ctx{this, a, y_best};
+    for (int s = 0; s < starts; ++s) {
+      nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(d));
+      opt.set_lower_bounds(0.0);
+      opt.set_upper_bounds(1.0);
+      opt.set_min_objective(objective, &ctx);
+      opt.set_maxeval(options_.acquisition_local_evaluations);
+      opt.set_xtol_abs(1e-9);
+      const Eigen::VectorXd start = C.col(order[s]);
+      std::vector<double> x(start.data(), start.data() + d);
+      double value = score[order[s]];
+      try {
+        opt.optimize(x, value);
+      } catch (const std::exception&) {
+        // Roundoff-limited stop: keep whatever point NLopt left in x, re-scored here.
+        const Eigen::Map<const Eigen::VectorXd> u(x.data(), d);
+        const Prediction p = gp_.predict(u);
+        value = evaluate_acquisition(a, p.mean, p.std, y_best, options_.xi, options_.kappa).value;
+      }
+      if (std::isfinite(value) && value < best_value) {
+        best_value = value;
+        best_x = Eigen::Map<Eigen::VectorXd>(x.data(), d).cwiseMax(0.0).cwiseMin(1.0);
+      }
     }
-    if (std::isfinite(value) && value < best_value) {
-      best_value = value;
-      best_x = Eigen::Map<Eigen::VectorXd>(x.data(), d).cwiseMax(0.0).cwiseMin(1.0);
-    }
+    proposals.push_back(best_x);
   }
-  return best_x;
+  return proposals;
 }
 
 bool BayesianOptimizer::is_duplicate(const Eigen::VectorXd& u, const Eigen::MatrixXd& taken) const {
@@ -273,7 +281,7 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vect
     if (k == 0 && !lies_present) {
       u = next_proposals_[choice];  // computed at the last tell, exactly as scikit-optimize's ask()
     } else {
-      u = optimise_acquisition(a, data.y.minCoeff(), rng);
+      u = optimise_acquisitions({a}, data.y.minCoeff(), rng).front();
     }
     if (is_duplicate(u, data.X)) {
       for (int i = 0; i < u.size(); ++i) u[i] = unit(rng);

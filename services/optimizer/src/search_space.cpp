@@ -98,8 +98,8 @@ Eigen::VectorXd SearchSpace::from_named(const std::map<std::string, double>& nam
 
 namespace {
 
-SearchSpace parse_space(const YamlReader& r) {
-  r.reject_unknown_keys({"parameters", "fixed"});
+SearchSpace parse_space(const YamlReader& r, bool only_space_keys) {
+  if (only_space_keys) r.reject_unknown_keys({"parameters", "fixed"});
   if (!r.has("parameters")) r.fail("parameters", "is missing");
   const YAML::Node list = r.node()["parameters"];
   if (!list.IsSequence() || list.size() == 0) r.fail("parameters", "must be a non-empty list of {name, low, high}");
@@ -131,10 +131,12 @@ SearchSpace parse_space(const YamlReader& r) {
 
 }  // namespace
 
-SearchSpace SearchSpace::load(const std::string& path) { return parse_space(YamlReader::from_file(path)); }
+SearchSpace SearchSpace::load(const std::string& path) { return parse_space(YamlReader::from_file(path), true); }
+
+SearchSpace SearchSpace::from_reader(const YamlReader& reader) { return parse_space(reader, false); }
 
 SearchSpace SearchSpace::from_yaml_text(const std::string& text, const std::string& source_name) {
-  return parse_space(YamlReader::from_string(text, source_name));
+  return parse_space(YamlReader::from_string(text, source_name), true);
 }
 
 SearchSpace SearchSpace::paper_cpg_space() {

@@ -46,14 +46,15 @@ struct OptimizerOptions {
   double xi = 0.01;                    // EI/PI exploration margin, in objective units (scikit-optimize)
   double kappa = 1.96;                 // LCB exploration weight (scikit-optimize)
   double hedge_eta = 1.0;              // softmax temperature of gp_hedge
-  int acquisition_candidates = 2000;   // random points scored before local refinement
+  int acquisition_candidates = 1000;   // random points scored (once, shared by the portfolio) before refinement
   int acquisition_local_starts = 5;    // best candidates refined with L-BFGS
   int acquisition_local_evaluations = 40;
   LiarStrategy liar = LiarStrategy::kMin;
   std::uint64_t seed = 0;
   GpOptions gp;
   // Hyperparameters: warm-started L-BFGS at every fit; random restarts at every k-th fit as well.
-  int hyperparameter_restart_every = 5;
+  int hyperparameter_restart_every = 10;
+  int hyperparameter_warm_evaluations = 20;  // L-BFGS budget of a warm-started fit (restart fits: gp.max_evaluations)
 
   // Throws InputError naming the first invalid field.
   void validate() const;
@@ -104,8 +105,10 @@ class BayesianOptimizer {
   void record(Observation obs);
   void refit();
   std::mt19937_64 rng_for(std::uint64_t counter, std::uint64_t purpose) const;
-  // Minimises one acquisition over the unit cube on the current GP.
-  Eigen::VectorXd optimise_acquisition(Acquisition a, double y_best, std::mt19937_64& rng) const;
+  // Minimises each acquisition over the unit cube on the current GP. The random candidates and their
+  // posterior are computed once and shared; each acquisition then refines its own best candidates.
+  std::vector<Eigen::VectorXd> optimise_acquisitions(const std::vector<Acquisition>& acquisitions, double y_best,
+                                                     std::mt19937_64& rng) const;
   std::vector<Eigen::VectorXd> ask_model(int n, const std::vector<Eigen::VectorXd>& pending, int issued);
   bool is_duplicate(const Eigen::VectorXd& u, const Eigen::MatrixXd& taken) const;
 

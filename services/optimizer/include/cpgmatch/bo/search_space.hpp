@@ -16,6 +16,10 @@
 
 #include <Eigen/Core>
 
+namespace cpgmatch {
+class YamlReader;
+}
+
 namespace cpgmatch::bo {
 
 struct Dimension {
@@ -50,6 +54,8 @@ class SearchSpace {
 
   static SearchSpace load(const std::string& path);
   static SearchSpace from_yaml_text(const std::string& text, const std::string& source_name);
+  // Reads `parameters` and `fixed` from a mapping that may hold other keys too (a study file).
+  static SearchSpace from_reader(const YamlReader& reader);
   // The paper's six CPG parameters, with frequency 1 Hz and knee amplitude 30 degrees fixed.
   static SearchSpace paper_cpg_space();
 

@@ -1,0 +1,116 @@
+// `cpgmatch optimize`: Bayesian optimisation of any black box given as a shell command, or of the
+// simulated CPG rollout (`--objective rollout`).
+#include <iostream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "optimization_loop.hpp"
+#include "optimizer_flags.hpp"
+#include "progress.hpp"
+
+namespace cpgmatch::cli {
+namespace {
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+}  // namespace
+
+std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed, double entrain_s, double eval_s) {
+  std::string cmd = fmt::format("{} eval-rollout --terrain {} --seed {}", quote(self_executable()), quote(terrain), seed);
+  if (entrain_s >= 0.0) cmd += fmt::format(" --entrain {}", entrain_s);
+  if (eval_s > 0.0) cmd += fmt::format(" --eval {}", eval_s);
+  return cmd;
+}
+
+void add_optimize_command(CLI::App& app) {
+  struct Options {
+    OptimizerFlags flags;
+    std::string space_file;
+    std::string objective_cmd;
+    std::string objective;
+    double timeout_s = 600.0;
+    std::string terrain = "flat";
+  };
+  auto opts = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand("optimize", "Bayesian optimisation of a black-box command or of the CPG");
+  cmd->add_option("--space", opts->space_file, "search space YAML (default with --objective rollout: configs/spaces/paper.yaml)");
+  cmd->add_option("--objective-cmd", opts->objective_cmd, "shell command: point as JSON on stdin, cost on the last stdout line");
+  cmd->add_option("--objective", opts->objective, "built-in objective: rollout");
+  cmd->add_option("--timeout", opts->timeout_s, "seconds before an evaluation is killed and counted as failed");
+  cmd->add_option("--terrain", opts->terrain, "terrain for --objective rollout");
+  opts->flags.add_to(cmd);
+  cmd->callback([opts] {
+    const auto options = opts->flags.to_options();
+    if (!opts->objective.empty() && opts->objective != "rollout") {
+      throw InputError(fmt::format("--objective '{}': the only built-in objective is 'rollout'", opts->objective));
+    }
+    const bool rollout = opts->objective == "rollout";
+    if (rollout == !opts->objective_cmd.empty()) {
+      throw InputError("give exactly one of --objective-cmd \"CMD\" or --objective rollout");
+    }
+    if (!(opts->timeout_s > 0.0)) throw InputError("--timeout must be > 0");
+    std::string space_file = opts->space_file;
+    if (space_file.empty()) {
+      if (!rollout) throw InputError("--space SPACE.yaml is required with --objective-cmd");
+      space_file = sim::config_dir() + "/spaces/paper.yaml";
+    }
+    const bo::SearchSpace space = bo::SearchSpace::load(space_file);
+    const std::string command =
+        rollout ? rollout_objective_command(opts->terrain, opts->flags.seed, -1.0, -1.0) : opts->objective_cmd;
+
+    bo::BayesianOptimizer optimizer(space, options);
+    ProgressLine progress(opts->flags.budget, opts->flags.quiet);
+    nlohmann::json evaluations = nlohmann::json::array();
+    double best = std::numeric_limits<double>::infinity();
+    int failed = 0;
+    const auto evaluate = [&](const Eigen::VectorXd& x) {
+      nlohmann::json point = nlohmann::json::object();
+      for (const auto& [name, value] : space.to_named(x)) point[name] = value;
+      return run_command_objective(command, point.dump(), opts->timeout_s);
+    };
+    run_optimization(optimizer, opts->flags.budget, opts->flags.batch, evaluate, [&](const Trial& t) {
+      nlohmann::json params = nlohmann::json::object();
+      for (const auto& [name, value] : space.to_named(t.x)) params[name] = value;
+      std::string note;
+      if (t.outcome.ok) {
+        best = std::min(best, t.outcome.cost);
+        note = fmt::format("cost {:.6g}", t.outcome.cost);
+      } else {
+        ++failed;
+        note = fmt::format("FAILED: {}", t.outcome.message);
+        if (!opts->flags.quiet) fmt::print(stderr, "evaluation {} failed: {} (params {})\n", t.index, t.outcome.message, params.dump());
+      }
+      evaluations.push_back({{"index", t.index}, {"params", params}, {"ok", t.outcome.ok},
+                             {"cost", t.outcome.ok ? nlohmann::json(t.outcome.cost) : nlohmann::json(nullptr)},
+                             {"error", t.outcome.ok ? nlohmann::json(nullptr) : nlohmann::json(t.outcome.message)}});
+      progress.update(t.index + 1, best, note);
+    });
+
+    const auto best_obs = optimizer.best();
+    nlohmann::json best_params = nullptr;
+    if (best_obs) {
+      best_params = nlohmann::json::object();
+      for (const auto& [name, value] : space.to_named(best_obs->x)) best_params[name] = value;
+    }
+    if (opts->flags.json) {
+      std::cout << nlohmann::json{{"best", best_obs ? nlohmann::json(best_obs->y) : nlohmann::json(nullptr)},
+                                  {"best_params", best_params}, {"evaluations", evaluations.size()},
+                                  {"failed", failed}, {"wall_time_s", progress.elapsed_s()}, {"trials", evaluations}}
+                       .dump()
+                << std::endl;
+    } else if (best_obs) {
+      fmt::print("best cost {:.6g} after {} evaluations ({} failed), {:.1f} s\n  params {}\n", best_obs->y,
+                 evaluations.size(), failed, progress.elapsed_s(), best_params.dump());
+    } else {
+      fmt::print("no successful evaluation in {} ({} failed)\n", evaluations.size(), failed);
+    }
+  });
+}
+
+}  // namespace cpgmatch::cli

@@ -1,0 +1,26 @@
+// Drives a BayesianOptimizer against an objective that runs in parallel: ask(B), evaluate the B points
+// concurrently, tell the results in proposal order. Telling in a fixed order keeps a run deterministic
+// for a given seed even though evaluations finish in any order.
+#pragma once
+
+#include <functional>
+
+#include "command_objective.hpp"
+#include "cpgmatch/bo/optimizer.hpp"
+
+namespace cpgmatch::cli {
+
+struct Trial {
+  int index = 0;
+  Eigen::VectorXd x;
+  EvaluationOutcome outcome;
+};
+
+using Evaluator = std::function<EvaluationOutcome(const Eigen::VectorXd&)>;
+using TrialCallback = std::function<void(const Trial&)>;
+
+// Runs `budget` evaluations, at most `parallel` at a time. Failed evaluations go to tell_failure().
+void run_optimization(bo::BayesianOptimizer& optimizer, int budget, int parallel, const Evaluator& evaluate,
+                      const TrialCallback& on_trial);
+
+}  // namespace cpgmatch::cli

@@ -1,0 +1,85 @@
+#include "study_config.hpp"
+
+#include <fmt/format.h>
+
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/params.hpp"
+#include "cpgmatch/sim/terrain.hpp"
+#include "cpgmatch/yaml_reader.hpp"
+
+namespace cpgmatch::cli {
+
+StudyConfig load_study_config(const std::string& path) {
+  const YamlReader r = YamlReader::from_file(path);
+  r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
+                         "rollout", "terrain", "parameters", "fixed"});
+  StudyConfig s;
+  s.name = r.require_string("name");
+  s.budget = r.get_int("budget", s.budget);
+  if (s.budget < 1) r.fail("budget", "must be >= 1");
+  s.optimizer.initial_points = r.get_int("initial_points", 15);
+  if (s.optimizer.initial_points < 1) r.fail("initial_points", "must be >= 1");
+  try {
+    s.optimizer.acquisition = bo::acquisition_from_string(r.get_string("acquisition", "gp_hedge"));
+  } catch (const InputError& e) {
+    r.fail("acquisition", e.what());
+  }
+  try {
+    s.optimizer.initial_design = bo::initial_design_from_string(r.get_string("initial_design", "random"));
+    s.optimizer.liar = bo::liar_from_string(r.get_string("liar", "min"));
+  } catch (const InputError& e) {
+    r.fail(r.has("liar") ? "liar" : "initial_design", e.what());
+  }
+  const int seed = r.get_int("seed", 0);
+  if (seed < 0) r.fail("seed", "must be >= 0");
+  s.optimizer.seed = static_cast<std::uint64_t>(seed);
+  if (r.has("rollout")) {
+    const YamlReader ro = r.child("rollout");
+    ro.reject_unknown_keys({"entrain_s", "eval_s"});
+    s.entrain_s = ro.get_double("entrain_s", s.entrain_s);
+    s.eval_s = ro.get_double("eval_s", s.eval_s);
+    if (s.entrain_s < 0.0) ro.fail("entrain_s", "must be >= 0");
+    if (s.eval_s <= 0.0) ro.fail("eval_s", "must be > 0");
+  }
+  s.terrain = r.get_string("terrain", s.terrain);
+  try {
+    (void)sim::TerrainSpec::parse(s.terrain);
+  } catch (const InputError& e) {
+    r.fail("terrain", e.what());
+  }
+  if (r.has("parameters")) {
+    s.space = bo::SearchSpace::from_reader(r);
+  } else if (r.has("fixed")) {
+    std::map<std::string, double> fixed;
+    r.child("fixed").for_each_number([&](const std::string& k, double v, const std::string&) { fixed[k] = v; });
+    try {
+      s.space = bo::SearchSpace(bo::SearchSpace::paper_cpg_space().dimensions(), fixed);
+    } catch (const InputError& e) {
+      r.fail("fixed", e.what());
+    }
+  }
+  // Every optimised or fixed name must be a CPG parameter, with bounds inside its valid range.
+  for (const auto& d : s.space.dimensions()) {
+    const ParameterInfo* info = nullptr;
+    try {
+      info = &parameter_info(d.name);
+    } catch (const InputError& e) {
+      r.fail("parameters", e.what());
+    }
+    if (d.low < info->low || d.high > info->high) {
+      r.fail("parameters", fmt::format("'{}' range [{}, {}] exceeds its valid range [{}, {}]", d.name, d.low, d.high,
+                                       info->low, info->high));
+    }
+  }
+  for (const auto& [name, value] : s.space.fixed()) {
+    CpgParameters p;
+    try {
+      set_parameter(p, name, value, "fixed");
+    } catch (const InputError& e) {
+      r.fail("fixed", e.what());
+    }
+  }
+  return s;
+}
+
+}  // namespace cpgmatch::cli
