@@ -14,7 +14,7 @@ PACKAGES=(
   # configuration, CLI, logging, JSON, storage
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsqlite3-dev sqlite3
   # tests, benchmarks, plots
-  libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
+  libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox time python3
 )
 
 missing=()

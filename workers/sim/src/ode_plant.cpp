@@ -57,6 +57,8 @@ struct OdePlant::Impl {
   dWorldID world = nullptr;
   dSpaceID terrain_space = nullptr;
   dJointGroupID contact_group = nullptr;
+  dGeomID moving_ground = nullptr;  // the plane of a kShift terrain
+  bool shifted = false;
   dBodyID trunk = nullptr;
   dJointID rail = nullptr;
   PerLeg<LegBodies> legs{};
@@ -101,6 +103,9 @@ struct OdePlant::Impl {
     switch (terrain.kind) {
       case TerrainSpec::Kind::kFlat:
         dCreatePlane(terrain_space, 0, 1, 0, 0);
+        break;
+      case TerrainSpec::Kind::kShift:
+        moving_ground = dCreatePlane(terrain_space, 0, 1, 0, 0);
         break;
       case TerrainSpec::Kind::kStep: {
         const double h = terrain.step_height_m;
@@ -298,6 +303,10 @@ struct OdePlant::Impl {
   }
 
   void step() {
+    if (moving_ground && !shifted && time >= terrain.shift_time_s) {
+      dGeomPlaneSetParams(moving_ground, 0, 1, 0, terrain.shift_height_m);
+      shifted = true;
+    }
     apply_actuators();
     collide();
     dWorldStep(world, dt);

@@ -49,7 +49,18 @@ TerrainSpec TerrainSpec::parse(const std::string& text) {
     }
     return t;
   }
-  throw InputError(fmt::format("--terrain '{}': expected flat, step:HEIGHT@DISTANCE or rough:AMPLITUDE", text));
+  if (text.rfind("shift:", 0) == 0) {
+    const std::string rest = text.substr(6);
+    const auto at = rest.find('@');
+    if (at == std::string::npos) throw InputError(fmt::format("--terrain '{}': expected shift:HEIGHT@TIME", text));
+    t.kind = Kind::kShift;
+    t.shift_height_m = parse_metres(rest.substr(0, at), text, "height");
+    t.shift_time_s = parse_metres(rest.substr(at + 1), text, "time");
+    if (std::abs(t.shift_height_m) > 0.1) throw InputError(fmt::format("--terrain '{}': shift must be within +-0.1 m", text));
+    if (t.shift_time_s < 0.0) throw InputError(fmt::format("--terrain '{}': shift time must be >= 0 s", text));
+    return t;
+  }
+  throw InputError(fmt::format("--terrain '{}': expected flat, step:HEIGHT@DISTANCE, rough:AMPLITUDE or shift:HEIGHT@TIME", text));
 }
 
 std::string TerrainSpec::describe() const {
@@ -57,6 +68,7 @@ std::string TerrainSpec::describe() const {
     case Kind::kFlat: return "flat";
     case Kind::kStep: return fmt::format("step:{}@{}", step_height_m, step_distance_m);
     case Kind::kRough: return fmt::format("rough:{}", rough_amplitude_m);
+    case Kind::kShift: return fmt::format("shift:{}@{}", shift_height_m, shift_time_s);
   }
   return "?";
 }

@@ -7,7 +7,7 @@
 namespace cpgmatch::sim {
 
 struct TerrainSpec {
-  enum class Kind { kFlat, kStep, kRough };
+  enum class Kind { kFlat, kStep, kRough, kShift };
   Kind kind = Kind::kFlat;
   double step_height_m = 0.0;    // + up, - down
   double step_distance_m = 1.0;  // world x of the step edge (the trunk starts at x = 0)
@@ -15,8 +15,13 @@ struct TerrainSpec {
   double rough_tile_length_m = 0.08;
   double rough_start_m = 0.4;    // flat ground before this, so the robot starts standing level
   double treadmill_speed_mps = 0.0;
+  // kShift: flat ground that moves vertically by shift_height_m at time shift_time_s (a controlled
+  // perturbation: everything before the shift is identical to flat ground).
+  double shift_height_m = 0.0;
+  double shift_time_s = 0.0;
 
-  // Parses "flat", "step:HEIGHT@DISTANCE" or "rough:AMPLITUDE" (metres). Throws InputError.
+  // Parses "flat", "step:HEIGHT@DISTANCE", "rough:AMPLITUDE" (metres) or "shift:HEIGHT@TIME" (metres,
+  // seconds). Throws InputError.
   static TerrainSpec parse(const std::string& text);
   std::string describe() const;
 };

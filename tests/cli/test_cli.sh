@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Command-line behaviour: exit codes, error messages naming the field/file/line, JSON fields, traces,
+# a failing objective that does not stop a run. Prints 'N passed, N failed' and exits non-zero on failure.
+set -u
+bin="$1"
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+passed=0; failed=0
+check() {  # check NAME CONDITION-COMMAND...
+  local name="$1"; shift
+  if "$@"; then passed=$((passed+1)); else failed=$((failed+1)); echo "FAIL: $name"; fi
+}
+expect_exit() {  # expect_exit CODE PATTERN CMD...: exit code and a stderr pattern
+  local code="$1" pattern="$2"; shift 2
+  "$@" >"$tmp/out" 2>"$tmp/err"; local got=$?
+  [ "$got" -eq "$code" ] && grep -q -- "$pattern" "$tmp/err" || { echo "  got exit $got, stderr: $(head -c 300 "$tmp/err")"; return 1; }
+}
+
+# Bad input: exit 2 and a message naming the field (and file:line for YAML).
+check "unknown parameter" expect_exit 2 "hip_ofset" "$bin" rollout --set hip_ofset=0.1
+check "out of range" expect_exit 2 "duty_factor_front" "$bin" rollout --set duty_factor_front=0.95
+check "nan value" expect_exit 2 "finite" "$bin" rollout --set overswing=nan
+check "bad terrain" expect_exit 2 "terrain" "$bin" rollout --terrain hills
+printf 'hip_offset: 0.1\nduty_factor_hind: [1, 2]\n' >"$tmp/p.yaml"
+check "malformed params file names file:line" expect_exit 2 "p.yaml:2" "$bin" rollout --params "$tmp/p.yaml"
+printf 'hip_offset: 0.1\n  bad: : indent\n' >"$tmp/broken.yaml"
+check "yaml syntax error names file" expect_exit 2 "broken.yaml" "$bin" rollout --params "$tmp/broken.yaml"
+printf 'parameters:\n  - {name: x, low: 2, high: 1}\n' >"$tmp/space.yaml"
+check "low >= high" expect_exit 2 "space.yaml:2" "$bin" optimize --space "$tmp/space.yaml" --objective-cmd "echo 1" --budget 2
+check "missing objective" expect_exit 2 "objective" "$bin" optimize --space "$tmp/space.yaml" --budget 2
+printf 'name: s\nbudget: 0\n' >"$tmp/study.yaml"
+check "bad study budget" expect_exit 2 "budget" "$bin" study run --config "$tmp/study.yaml" --out "$tmp/s"
+
+# rollout --json: exactly one JSON object with the documented fields; the trace is written.
+"$bin" rollout --params "$(dirname "$0")/../../configs/params/matched-trot.yaml" --entrain 1 --eval 2 --json --trace "$tmp/t.csv" >"$tmp/r.json"
+check "rollout json fields" python3 -c "
+import json,sys
+r=json.load(open('$tmp/r.json'))
+need=['cost','terms','normalized_torque','fell','distance_m','mean_speed_mps','feedback_fraction','sim_time_s','wall_time_s','params']
+assert all(k in r for k in need), [k for k in need if k not in r]
+assert set(r['terms'])>={'feedback','distance','pitch','contact','periodicity'}
+assert set(r['feedback_fraction'])=={'late_touchdown','early_touchdown','early_toeoff','late_toeoff'}
+assert abs(r['sim_time_s']-3.0)<0.01
+"
+check "rollout prints one line" test "$(wc -l <"$tmp/r.json")" -eq 1
+check "trace has rows" test "$(wc -l <"$tmp/t.csv")" -gt 1000
+
+# optimize: a failing objective is logged and the run continues; the result has the best point.
+printf 'parameters:\n  - {name: x, low: -2, high: 3}\n' >"$tmp/q.yaml"
+cat >"$tmp/obj.sh" <<'OBJ'
+#!/bin/sh
+x=$(python3 -c 'import json,sys; print(json.load(sys.stdin)["x"])')
+case "$x" in -1.*) exit 3;; esac
+python3 -c "print(($x-0.7)**2)"
+OBJ
+chmod +x "$tmp/obj.sh"
+"$bin" optimize --space "$tmp/q.yaml" --objective-cmd "$tmp/obj.sh" --budget 14 --initial 5 --seed 3 --json >"$tmp/o.json" 2>"$tmp/o.err"
+check "optimize finishes and finds the quadratic minimum" python3 -c "
+import json; r=json.load(open('$tmp/o.json')); assert r['evaluations']==14, r; assert r['best'] < 1e-2, r['best']"
+"$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo notanumber" --budget 3 --initial 2 --json >"$tmp/f.json" 2>"$tmp/f.err"
+check "non-number output is a failed evaluation, not a crash" python3 -c "
+import json; r=json.load(open('$tmp/f.json')); assert r['failed']==3 and r['evaluations']==3, r"
+check "failure is logged" grep -q "not a finite number" "$tmp/f.err"
+
+# bench-optimizer prints the documented fields.
+"$bin" bench-optimizer --function branin --budget 20 --initial 5 --seed 0 --quiet --json >"$tmp/b.json"
+check "bench-optimizer json" python3 -c "
+import json; r=json.load(open('$tmp/b.json')); assert {'best','regret','best_index','wall_time_s','proposal_ms_last'} <= set(r)"
+
+# A small local study runs end to end and writes its results.
+printf 'name: tiny\nbudget: 6\ninitial_points: 4\nrollout: {entrain_s: 1.0, eval_s: 1.0}\n' >"$tmp/tiny.yaml"
+"$bin" study run --config "$tmp/tiny.yaml" --workers 2 --out "$tmp/tiny" --quiet --json >"$tmp/study.json"
+check "study summary" python3 -c "
+import json; s=json.load(open('$tmp/study.json')); assert s['rollouts']==6 and 'best_cost' in s, s"
+check "study trials file" test "$(wc -l <"$tmp/tiny/trials.jsonl")" -eq 6
+
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
