@@ -110,6 +110,20 @@ TEST(Physics, OnGentlyRoughGroundFeedbackFallsNoMoreOftenThanOpenLoop) {
   EXPECT_LE(falls_with, falls_without);
 }
 
+TEST(Physics, OnATreadmillTheMatchedTrotWalksTheBeltAndStaysNearItsStart) {
+  SimRolloutJob job = job_with("matched-trot.yaml", "flat", 10.0, 10.0);
+  job.terrain.treadmill_speed_mps = 0.3;
+  double world_x_end = 0.0;
+  const RolloutResult r = run_sim_rollout(job, [&](const TraceSample& s) {
+    // Ground distance minus the belt's travel (the belt ramps up over 2 s) is where the trunk is.
+    const double belt = 0.3 * std::max(0.0, s.time_s - 1.0);
+    world_x_end = s.state->trunk.x_m - belt;
+  });
+  EXPECT_FALSE(r.fell);
+  EXPECT_GE(r.breakdown.mean_speed_mps, 0.25);  // speed over the belt, as on fixed ground
+  EXPECT_LT(std::abs(world_x_end), 0.5);        // the belt holds the body near its start
+}
+
 TEST(Physics, ModelFileErrorsNameFileLineAndField) {
   const std::string path = ::testing::TempDir() + "/bad_model.yaml";
   {

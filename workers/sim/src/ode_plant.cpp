@@ -71,6 +71,12 @@ struct OdePlant::Impl {
   std::vector<ActiveContact> contacts_this_step;
   double time = 0.0;
   double dt = 0.001;
+  double belt_travel = 0.0;  // metres the treadmill belt has moved backwards
+
+  double belt_speed() const {
+    const double ramp = terrain.treadmill_ramp_s > 0.0 ? std::min(1.0, time / terrain.treadmill_ramp_s) : 1.0;
+    return terrain.treadmill_speed_mps * ramp;
+  }
 
   Impl(const MortiModel& m, const TerrainSpec& t, std::uint64_t seed) : model(m), terrain(t) {
     init_ode_once();
@@ -269,7 +275,7 @@ struct OdePlant::Impl {
         if (terrain.treadmill_speed_mps != 0.0) {
           contact.surface.mode |= dContactMotion1 | dContactFDir1;
           contact.fdir1[0] = 1.0;
-          contact.surface.motion1 = -terrain.treadmill_speed_mps;
+          contact.surface.motion1 = -belt_speed();  // the belt surface moves backwards (-x)
         }
         dJointID j = dJointCreateContact(world, contact_group, &contact);
         dJointAttach(j, legs[i].foot, nullptr);
@@ -309,6 +315,7 @@ struct OdePlant::Impl {
     }
     apply_actuators();
     collide();
+    belt_travel += belt_speed() * dt;
     dWorldStep(world, dt);
     read_contact_forces();
     dJointGroupEmpty(contact_group);
@@ -337,8 +344,8 @@ PlantState OdePlant::state() const {
   s.time_s = m.time;
   const dReal* p = dBodyGetPosition(m.trunk);
   const dReal* v = dBodyGetLinearVel(m.trunk);
-  s.trunk.x_m = p[0] + m.terrain.treadmill_speed_mps * m.time;
-  s.trunk.vx_mps = v[0] + m.terrain.treadmill_speed_mps;
+  s.trunk.x_m = p[0] + m.belt_travel;
+  s.trunk.vx_mps = v[0] + m.belt_speed();
   s.trunk.height_m = p[1];
   s.trunk.pitch_rad = body_angle_z(m.trunk);
   for (int i = 0; i < kNumLegs; ++i) {

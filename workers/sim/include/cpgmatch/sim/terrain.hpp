@@ -15,6 +15,7 @@ struct TerrainSpec {
   double rough_tile_length_m = 0.08;
   double rough_start_m = 0.4;    // flat ground before this, so the robot starts standing level
   double treadmill_speed_mps = 0.0;
+  double treadmill_ramp_s = 2.0;  // the belt accelerates from rest over this time, like a real treadmill
   // kShift: flat ground that moves vertically by shift_height_m at time shift_time_s (a controlled
   // perturbation: everything before the shift is identical to flat ground).
   double shift_height_m = 0.0;
