@@ -69,14 +69,9 @@ void add_optimize_command(CLI::App& app) {
     nlohmann::json evaluations = nlohmann::json::array();
     double best = std::numeric_limits<double>::infinity();
     int failed = 0;
-    const auto evaluate = [&](const Eigen::VectorXd& x) {
-      nlohmann::json point = nlohmann::json::object();
-      for (const auto& [name, value] : space.to_named(x)) point[name] = value;
-      return run_command_objective(command, point.dump(), opts->timeout_s);
-    };
+    const Evaluator evaluate = command_evaluator(space, command, opts->timeout_s);
     run_optimization(optimizer, opts->flags.budget, opts->flags.batch, evaluate, [&](const Trial& t) {
-      nlohmann::json params = nlohmann::json::object();
-      for (const auto& [name, value] : space.to_named(t.x)) params[name] = value;
+      const nlohmann::json params = named_point_json(space, t.x);
       std::string note;
       if (t.outcome.ok) {
         best = std::min(best, t.outcome.cost);
@@ -93,11 +88,7 @@ void add_optimize_command(CLI::App& app) {
     });
 
     const auto best_obs = optimizer.best();
-    nlohmann::json best_params = nullptr;
-    if (best_obs) {
-      best_params = nlohmann::json::object();
-      for (const auto& [name, value] : space.to_named(best_obs->x)) best_params[name] = value;
-    }
+    const nlohmann::json best_params = best_obs ? named_point_json(space, best_obs->x) : nlohmann::json(nullptr);
     if (opts->flags.json) {
       std::cout << nlohmann::json{{"best", best_obs ? nlohmann::json(best_obs->y) : nlohmann::json(nullptr)},
                                   {"best_params", best_params}, {"evaluations", evaluations.size()},

@@ -212,16 +212,10 @@ void add_study_command(CLI::App& app) {
     ProgressBar bar(cfg.budget, opts->quiet);
     const auto start = std::chrono::steady_clock::now();
     double best = std::numeric_limits<double>::infinity();
-    const auto evaluate = [&](const Eigen::VectorXd& x) {
-      json point = json::object();
-      for (const auto& [name, value] : cfg.space.to_named(x)) point[name] = value;
-      return run_command_objective(command, point.dump(), 600.0);
-    };
+    const Evaluator evaluate = command_evaluator(cfg.space, command, 600.0);
     run_optimization(optimizer, cfg.budget, workers, evaluate, [&](const Trial& t) {
       json record{{"index", t.index}, {"ok", t.outcome.ok}};
-      json params = json::object();
-      for (const auto& [name, value] : cfg.space.to_named(t.x)) params[name] = value;
-      record["params"] = params;
+      record["params"] = named_point_json(cfg.space, t.x);
       record["result"] = nullptr;
       if (t.outcome.ok && t.outcome.stdout_lines.size() >= 2) {
         record["result"] = json::parse(t.outcome.stdout_lines[t.outcome.stdout_lines.size() - 2], nullptr, false);

@@ -5,6 +5,18 @@
 
 namespace cpgmatch::cli {
 
+nlohmann::json named_point_json(const bo::SearchSpace& space, const Eigen::VectorXd& x) {
+  nlohmann::json point = nlohmann::json::object();
+  for (const auto& [name, value] : space.to_named(x)) point[name] = value;
+  return point;
+}
+
+Evaluator command_evaluator(const bo::SearchSpace& space, std::string command, double timeout_s) {
+  return [&space, command = std::move(command), timeout_s](const Eigen::VectorXd& x) {
+    return run_command_objective(command, named_point_json(space, x).dump(), timeout_s);
+  };
+}
+
 void run_optimization(bo::BayesianOptimizer& optimizer, int budget, int parallel, const Evaluator& evaluate,
                       const TrialCallback& on_trial) {
   int done = 0;

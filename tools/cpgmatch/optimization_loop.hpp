@@ -4,6 +4,9 @@
 #pragma once
 
 #include <functional>
+#include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "command_objective.hpp"
 #include "cpgmatch/bo/optimizer.hpp"
@@ -18,6 +21,13 @@ struct Trial {
 
 using Evaluator = std::function<EvaluationOutcome(const Eigen::VectorXd&)>;
 using TrialCallback = std::function<void(const Trial&)>;
+
+// The point as a JSON object {"name": value, ...}, fixed parameters included.
+nlohmann::json named_point_json(const bo::SearchSpace& space, const Eigen::VectorXd& x);
+
+// Evaluates a point by running `command` with the point's JSON on stdin (see command_objective.hpp).
+// Keeps a reference to `space`, which must outlive the evaluator.
+Evaluator command_evaluator(const bo::SearchSpace& space, std::string command, double timeout_s);
 
 // Runs `budget` evaluations, at most `parallel` at a time. Failed evaluations go to tell_failure().
 void run_optimization(bo::BayesianOptimizer& optimizer, int budget, int parallel, const Evaluator& evaluate,
