@@ -145,9 +145,11 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       fb.reflex_duration_s = f.get_double("reflex_duration_s", fb.reflex_duration_s);
       fb.reflex_knee_flexion_rad = f.get_double("reflex_knee_flexion_rad", fb.reflex_knee_flexion_rad);
       fb.reflex_hip_passive = f.get_bool("reflex_hip_passive", fb.reflex_hip_passive);
-      for (const char* key : {"late_touchdown_phase_rate", "late_toeoff_phase_rate"}) {
-        const double v = f.get_double(key, 0.5);
-        if (v < 0.0 || v > 1.0) f.fail(key, "must be in [0, 1]");
+      if (fb.late_touchdown_phase_rate < 0.0 || fb.late_touchdown_phase_rate > 1.0) {
+        f.fail("late_touchdown_phase_rate", "must be in [0, 1]");
+      }
+      if (fb.late_toeoff_phase_rate < 0.0 || fb.late_toeoff_phase_rate > 1.0) {
+        f.fail("late_toeoff_phase_rate", "must be in [0, 1]");
       }
       if (fb.reflex_duration_s <= 0.0) f.fail("reflex_duration_s", "must be > 0");
     }
