@@ -81,9 +81,9 @@ void write_plots(const fs::path& dir, const std::vector<json>& trials, int initi
          << "set title 'Cost per rollout (dots, falls in red) and best so far (line); dashed: end of random initial design'\n"
          << "set ylabel 'cost'\nset logscale y\n"
          << "plot 'trials.dat' u 1:($6==0?$2:1/0) w p pt 7 ps 0.6 t 'cost', '' u 1:($6==1?$2:1/0) w p pt 7 ps 0.6 lc rgb 'red' t 'fell', '' u 1:3 w l lw 2 t 'best so far'\n"
-         << "set title 'Normalised torque (eq. 1) of rollouts that did not fall'\nset ylabel 'N m / (m/s)'\n"
+         << "set title 'Normalised torque (eq. 1) of rollouts that did not fall (log scale)'\nset ylabel 'N m / (m/s)'\n"
          << "plot 'trials.dat' u 1:4 w p pt 7 ps 0.6 t 'normalised torque'\n"
-         << "set title 'Feedback activity J_feedback (fraction of time per leg)'\nset ylabel 'fraction'\nset xlabel 'rollout'\n"
+         << "unset logscale y\nset title 'Feedback activity J_feedback (fraction of time per leg)'\nset ylabel 'fraction'\nset xlabel 'rollout'\n"
          << "plot 'trials.dat' u 1:5 w p pt 7 ps 0.6 t 'J_feedback'\nunset multiplot\n";
   script.close();
   const std::string cmd = fmt::format("cd '{}' && gnuplot plots.gp 2>/dev/null", dir.string());
