@@ -39,6 +39,22 @@ double limit_torque(double torque, double speed, const MotorModel& m) {
 
 constexpr int kMaxContactsPerToe = 3;
 
+// Collects up to kMaxContactsPerToe contacts of one toe with whatever terrain geoms the space reports.
+struct ToeContacts {
+  dGeomID toe;
+  dContactGeom* geoms;
+  int count;
+
+  static void near_callback(void* data, dGeomID a, dGeomID b) {
+    auto* self = static_cast<ToeContacts*>(data);
+    if (self->count >= kMaxContactsPerToe) return;
+    const dGeomID ground = a == self->toe ? b : a;
+    // Toe first, so every normal points into the foot.
+    self->count += dCollide(self->toe, ground, kMaxContactsPerToe - self->count, &self->geoms[self->count],
+                            sizeof(dContactGeom));
+  }
+};
+
 }  // namespace
 
 struct OdePlant::Impl {
@@ -258,13 +274,10 @@ struct OdePlant::Impl {
     std::size_t fb_index = 0;
     for (int i = 0; i < kNumLegs; ++i) {
       legs[i].normal_force = 0.0;
-      const int n_geoms = dSpaceGetNumGeoms(terrain_space);
-      int used = 0;
-      for (int g = 0; g < n_geoms && used < kMaxContactsPerToe; ++g) {
-        dGeomID ground = dSpaceGetGeom(terrain_space, g);
-        const int n = dCollide(legs[i].toe, ground, kMaxContactsPerToe - used, &geoms[used], sizeof(dContactGeom));
-        used += n;
-      }
+      // Let the hash space find the terrain geoms near this toe (rough ground has hundreds of tiles).
+      ToeContacts found{legs[i].toe, geoms, 0};
+      dSpaceCollide2(legs[i].toe, reinterpret_cast<dGeomID>(terrain_space), &found, &ToeContacts::near_callback);
+      const int used = found.count;
       for (int k = 0; k < used; ++k) {
         dContact contact{};
         contact.geom = geoms[k];
