@@ -1,0 +1,189 @@
+// A DDS participant with cpgmatch's topics, and typed writers and readers on them. This is the only
+// place that creates Fast DDS entities; the rest of the service code works with the generated message
+// structs and these two templates.
+//
+//   dds::Participant p({.domain = 7, .name = "optimizer"});
+//   dds::Writer<msg::Candidate> out(p);
+//   dds::Reader<msg::RolloutReport> in(p, [&](const msg::RolloutReport& r) { queue.push(r); });
+//
+// Reader callbacks run on a Fast DDS thread: hand the sample to your own thread, do not block.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/DataWriterListener.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/ContentFilteredTopic.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+
+#include "cpgmatch/dds/topics.hpp"
+
+namespace cpgmatch::dds {
+
+struct ParticipantConfig {
+  int domain = 0;
+  std::string name = "cpgmatch";
+  // Shared memory plus UDP on 127.0.0.1 only: a private study on one machine (`study run`, tests).
+  // Otherwise Fast DDS's defaults apply, or the XML profile in $FASTRTPS_DEFAULT_PROFILES_FILE.
+  bool localhost_only = false;
+};
+
+class Participant {
+ public:
+  explicit Participant(const ParticipantConfig& config);
+  ~Participant();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  eprosima::fastdds::dds::Topic* topic(TopicId id);
+  // A reader-side filter on `id`, e.g. ("worker_id = %0", {"'w1'"}). One per (topic, name).
+  eprosima::fastdds::dds::ContentFilteredTopic* filtered_topic(TopicId id, const std::string& name,
+                                                               const std::string& expression,
+                                                               const std::vector<std::string>& parameters);
+  eprosima::fastdds::dds::Publisher* publisher() { return publisher_; }
+  eprosima::fastdds::dds::Subscriber* subscriber() { return subscriber_; }
+  int domain() const { return domain_; }
+
+ private:
+  int domain_;
+  eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
+  eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
+  eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
+  std::mutex mutex_;
+  std::map<TopicId, eprosima::fastdds::dds::Topic*> topics_;
+};
+
+// Counts matched remote endpoints, so a client can wait until the service hears it.
+class MatchCounter {
+ public:
+  void add(int change) { count_ += change; }
+  int count() const { return count_.load(); }
+  // True once at least `n` are matched; false after `timeout`.
+  bool wait_for(int n, std::chrono::milliseconds timeout) const;
+
+ private:
+  std::atomic<int> count_{0};
+};
+
+namespace detail {
+// Creates/deletes DataWriters and DataReaders; kept out of the templates to keep them small.
+eprosima::fastdds::dds::DataWriter* create_writer(Participant& p, TopicId id,
+                                                  eprosima::fastdds::dds::DataWriterListener* listener);
+eprosima::fastdds::dds::DataReader* create_reader(Participant& p, eprosima::fastdds::dds::TopicDescription* topic,
+                                                  TopicId id, eprosima::fastdds::dds::DataReaderListener* listener);
+void delete_writer(Participant& p, eprosima::fastdds::dds::DataWriter* w);
+void delete_reader(Participant& p, eprosima::fastdds::dds::DataReader* r);
+}  // namespace detail
+
+template <class T>
+class Writer {
+ public:
+  explicit Writer(Participant& p) : participant_(p) {
+    writer_ = detail::create_writer(p, TopicOf<T>::id, &listener_);
+  }
+  ~Writer() { detail::delete_writer(participant_, writer_); }
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  bool write(const T& sample) { return writer_->write(const_cast<T*>(&sample)); }
+  // Removes the instance with `sample`'s key from the writer (and disposes it for readers).
+  bool unregister(const T& sample) {
+    return writer_->unregister_instance(const_cast<T*>(&sample), eprosima::fastrtps::rtps::InstanceHandle_t()) ==
+           ReturnCode_OK();
+  }
+  const MatchCounter& matched() const { return listener_.matched; }
+
+ private:
+  static eprosima::fastrtps::types::ReturnCode_t ReturnCode_OK() {
+    return eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
+  }
+  struct Listener : eprosima::fastdds::dds::DataWriterListener {
+    void on_publication_matched(eprosima::fastdds::dds::DataWriter*,
+                                const eprosima::fastdds::dds::PublicationMatchedStatus& s) override {
+      matched.add(s.current_count_change);
+    }
+    MatchCounter matched;
+  };
+  Participant& participant_;
+  Listener listener_;
+  eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
+};
+
+// What a reader reports besides data: an instance whose writer vanished or disposed it.
+struct InstanceGone {
+  bool disposed = false;  // false: no writer is alive any more (crash, lost liveliness)
+};
+
+template <class T>
+class Reader {
+ public:
+  using OnSample = std::function<void(const T&)>;
+  // `on_gone` gets the key fields of an instance that was disposed or lost all its writers.
+  using OnGone = std::function<void(const T& key, InstanceGone)>;
+
+  Reader(Participant& p, OnSample on_sample, OnGone on_gone = {})
+      : participant_(p), listener_(std::move(on_sample), std::move(on_gone)) {
+    reader_ = detail::create_reader(p, p.topic(TopicOf<T>::id), TopicOf<T>::id, &listener_);
+  }
+  // Reads only samples matching a DDS-SQL `expression` with `parameters` (a content-filtered topic).
+  Reader(Participant& p, const std::string& filter_name, const std::string& expression,
+         const std::vector<std::string>& parameters, OnSample on_sample, OnGone on_gone = {})
+      : participant_(p), listener_(std::move(on_sample), std::move(on_gone)) {
+    reader_ = detail::create_reader(p, p.filtered_topic(TopicOf<T>::id, filter_name, expression, parameters),
+                                    TopicOf<T>::id, &listener_);
+  }
+  ~Reader() { detail::delete_reader(participant_, reader_); }
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+
+  const MatchCounter& matched() const { return listener_.matched; }
+
+ private:
+  struct Listener : eprosima::fastdds::dds::DataReaderListener {
+    Listener(OnSample s, OnGone g) : on_sample(std::move(s)), on_gone(std::move(g)) {}
+    void on_data_available(eprosima::fastdds::dds::DataReader* reader) override {
+      namespace dds = eprosima::fastdds::dds;
+      T sample;
+      dds::SampleInfo info;
+      while (reader->take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+        if (info.valid_data) {
+          // Remember each instance's key: a dispose or a lost writer arrives with the handle only.
+          if (on_gone) last_by_instance[info.instance_handle] = sample;
+          if (on_sample) on_sample(sample);
+        } else if (on_gone) {
+          const auto it = last_by_instance.find(info.instance_handle);
+          if (it == last_by_instance.end()) continue;
+          const T key = it->second;
+          last_by_instance.erase(it);
+          on_gone(key, InstanceGone{info.instance_state == dds::NOT_ALIVE_DISPOSED_INSTANCE_STATE});
+        }
+      }
+    }
+    void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
+                                 const eprosima::fastdds::dds::SubscriptionMatchedStatus& s) override {
+      matched.add(s.current_count_change);
+    }
+    OnSample on_sample;
+    OnGone on_gone;
+    MatchCounter matched;
+    std::map<eprosima::fastrtps::rtps::InstanceHandle_t, T> last_by_instance;
+  };
+  Participant& participant_;
+  Listener listener_;
+  eprosima::fastdds::dds::DataReader* reader_ = nullptr;
+};
+
+}  // namespace cpgmatch::dds

@@ -1,0 +1,130 @@
+#include "cpgmatch/dds/participant.hpp"
+
+#include <thread>
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fmt/format.h>
+
+#include "cpgmatch/dds/domain.hpp"
+#include "cpgmatch_msgsPubSubTypes.h"
+#include "cpgmatch_msgsTypeObject.h"
+
+namespace cpgmatch::dds {
+
+namespace fdds = eprosima::fastdds::dds;
+using eprosima::fastrtps::types::ReturnCode_t;
+
+namespace {
+
+fdds::TypeSupport type_support(TopicId id) {
+  switch (id) {
+    case TopicId::kCandidates: return fdds::TypeSupport(new msg::CandidatePubSubType());
+    case TopicId::kReports: return fdds::TypeSupport(new msg::RolloutReportPubSubType());
+    case TopicId::kWorkers: return fdds::TypeSupport(new msg::WorkerAnnouncementPubSubType());
+    case TopicId::kStudyState: return fdds::TypeSupport(new msg::StudyStatePubSubType());
+    case TopicId::kTrials: return fdds::TypeSupport(new msg::TrialRecordPubSubType());
+    case TopicId::kCommands: return fdds::TypeSupport(new msg::StudyCommandPubSubType());
+    case TopicId::kReplies: return fdds::TypeSupport(new msg::CommandReplyPubSubType());
+  }
+  throw std::logic_error("unknown topic id");
+}
+
+}  // namespace
+
+Participant::Participant(const ParticipantConfig& config) : domain_(config.domain) {
+  validate_domain(config.domain);
+  // The DDS-SQL content filter looks types up in the TypeObject registry; generated code only fills it
+  // when a message is first constructed, which may be after a filtered reader is created.
+  registercpgmatch_msgsTypes();
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  // Start from the default profile so $FASTRTPS_DEFAULT_PROFILES_FILE (discovery server, security,
+  // transports) applies to every cpgmatch process without code changes.
+  fdds::DomainParticipantQos qos;
+  factory->get_default_participant_qos(qos);
+  qos.name(config.name);
+  if (config.localhost_only) {
+    qos.transport().use_builtin_transports = false;
+    qos.transport().user_transports.push_back(std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
+    auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+    udp->interfaceWhiteList.emplace_back("127.0.0.1");
+    qos.transport().user_transports.push_back(udp);
+  }
+  participant_ = factory->create_participant(config.domain, qos);
+  if (participant_ == nullptr) {
+    throw std::runtime_error(fmt::format("DDS: cannot create a participant on domain {}", config.domain));
+  }
+  publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+  if (publisher_ == nullptr || subscriber_ == nullptr) throw std::runtime_error("DDS: cannot create publisher/subscriber");
+}
+
+Participant::~Participant() {
+  if (participant_ == nullptr) return;
+  participant_->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+fdds::Topic* Participant::topic(TopicId id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (auto it = topics_.find(id); it != topics_.end()) return it->second;
+  fdds::TypeSupport type = type_support(id);
+  if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error(fmt::format("DDS: cannot register type {}", type.get_type_name()));
+  }
+  fdds::Topic* t = participant_->create_topic(topic_info(id).name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+  if (t == nullptr) throw std::runtime_error(fmt::format("DDS: cannot create topic {}", topic_info(id).name));
+  topics_[id] = t;
+  return t;
+}
+
+fdds::ContentFilteredTopic* Participant::filtered_topic(TopicId id, const std::string& name,
+                                                        const std::string& expression,
+                                                        const std::vector<std::string>& parameters) {
+  fdds::Topic* base = topic(id);
+  std::lock_guard<std::mutex> lock(mutex_);
+  fdds::ContentFilteredTopic* t = participant_->create_contentfilteredtopic(name, base, expression, parameters);
+  if (t == nullptr) {
+    throw std::runtime_error(fmt::format("DDS: cannot create content filter '{}' on {}", expression, topic_info(id).name));
+  }
+  return t;
+}
+
+bool MatchCounter::wait_for(int n, std::chrono::milliseconds timeout) const {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (count() < n) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
+namespace detail {
+
+fdds::DataWriter* create_writer(Participant& p, TopicId id, fdds::DataWriterListener* listener) {
+  fdds::DataWriter* w = p.publisher()->create_datawriter(p.topic(id), writer_qos(id), listener,
+                                                         fdds::StatusMask::publication_matched());
+  if (w == nullptr) throw std::runtime_error(fmt::format("DDS: cannot create a writer on {}", topic_info(id).name));
+  return w;
+}
+
+fdds::DataReader* create_reader(Participant& p, fdds::TopicDescription* topic, TopicId id,
+                                fdds::DataReaderListener* listener) {
+  fdds::DataReader* r = p.subscriber()->create_datareader(
+      topic, reader_qos(id), listener, fdds::StatusMask::data_available() << fdds::StatusMask::subscription_matched());
+  if (r == nullptr) throw std::runtime_error(fmt::format("DDS: cannot create a reader on {}", topic_info(id).name));
+  return r;
+}
+
+void delete_writer(Participant& p, fdds::DataWriter* w) {
+  if (w != nullptr) p.publisher()->delete_datawriter(w);
+}
+
+void delete_reader(Participant& p, fdds::DataReader* r) {
+  if (r != nullptr) p.subscriber()->delete_datareader(r);
+}
+
+}  // namespace detail
+}  // namespace cpgmatch::dds

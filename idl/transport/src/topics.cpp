@@ -1,0 +1,75 @@
+#include "cpgmatch/dds/topics.hpp"
+
+#include <stdexcept>
+
+namespace cpgmatch::dds {
+
+namespace dds = eprosima::fastdds::dds;
+
+const TopicInfo& topic_info(TopicId id) {
+  // Candidates and reports are transient-local so that a worker whose reader matches after the
+  // candidate was written still gets it, and a restarted optimizer still gets reports written while it
+  // was down. Both are keyed (study_id, trial_id): one instance per trial, last sample only.
+  static const TopicInfo kCandidates{"cpgmatch/candidates", true, 1, 100000};
+  static const TopicInfo kReports{"cpgmatch/reports", true, 1, 100000};
+  static const TopicInfo kWorkers{"cpgmatch/workers", true, 1, 10000};
+  static const TopicInfo kStudyState{"cpgmatch/study_state", true, 1, 10000};
+  static const TopicInfo kTrials{"cpgmatch/trials", true, 1, 1000000};
+  static const TopicInfo kCommands{"cpgmatch/commands", false, 256, 1};
+  static const TopicInfo kReplies{"cpgmatch/replies", false, 256, 1};
+  switch (id) {
+    case TopicId::kCandidates: return kCandidates;
+    case TopicId::kReports: return kReports;
+    case TopicId::kWorkers: return kWorkers;
+    case TopicId::kStudyState: return kStudyState;
+    case TopicId::kTrials: return kTrials;
+    case TopicId::kCommands: return kCommands;
+    case TopicId::kReplies: return kReplies;
+  }
+  throw std::logic_error("unknown topic id");
+}
+
+namespace {
+
+template <class Qos>
+void apply_common(Qos& qos, const TopicInfo& info) {
+  qos.reliability().kind = dds::RELIABLE_RELIABILITY_QOS;
+  qos.durability().kind = info.transient_local ? dds::TRANSIENT_LOCAL_DURABILITY_QOS : dds::VOLATILE_DURABILITY_QOS;
+  qos.history().kind = dds::KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = info.history_depth;
+  qos.resource_limits().max_instances = info.max_instances;
+  qos.resource_limits().max_samples_per_instance = info.history_depth;
+  qos.resource_limits().max_samples = info.max_instances * info.history_depth;
+  qos.resource_limits().allocated_samples = 64;
+}
+
+}  // namespace
+
+dds::DataWriterQos writer_qos(TopicId id) {
+  const TopicInfo& info = topic_info(id);
+  dds::DataWriterQos qos = dds::DATAWRITER_QOS_DEFAULT;
+  apply_common(qos, info);
+  // unregister_instance() also disposes (the default), so finished trials free the writer's memory.
+  qos.writer_data_lifecycle().autodispose_unregistered_instances = true;
+  if (id == TopicId::kWorkers) {
+    qos.liveliness().kind = dds::AUTOMATIC_LIVELINESS_QOS;
+    qos.liveliness().lease_duration = eprosima::fastrtps::Duration_t(kWorkerLivelinessLease_s);
+    qos.liveliness().announcement_period = eprosima::fastrtps::Duration_t(kWorkerLivelinessLease_s / 4);
+  }
+  // Writers never block the event loop for long when a reader is slow.
+  qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(0, 100000000);
+  return qos;
+}
+
+dds::DataReaderQos reader_qos(TopicId id) {
+  const TopicInfo& info = topic_info(id);
+  dds::DataReaderQos qos = dds::DATAREADER_QOS_DEFAULT;
+  apply_common(qos, info);
+  if (id == TopicId::kWorkers) {
+    qos.liveliness().kind = dds::AUTOMATIC_LIVELINESS_QOS;
+    qos.liveliness().lease_duration = eprosima::fastrtps::Duration_t(kWorkerLivelinessLease_s);
+  }
+  return qos;
+}
+
+}  // namespace cpgmatch::dds

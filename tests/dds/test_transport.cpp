@@ -1,0 +1,125 @@
+// The transport layer on a real DDS domain (in one process; the process-level tests are in
+// tests/integration). Each test uses its own domain id so that ctest -j runs do not cross-talk.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/dds/participant.hpp"
+
+namespace cpgmatch::dds {
+namespace {
+
+using namespace std::chrono_literals;
+
+template <class T>
+struct Inbox {
+  std::mutex mutex;
+  std::vector<T> samples;
+  void push(const T& s) {
+    std::lock_guard<std::mutex> lock(mutex);
+    samples.push_back(s);
+  }
+  std::size_t size() {
+    std::lock_guard<std::mutex> lock(mutex);
+    return samples.size();
+  }
+  bool wait_for(std::size_t n, std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (size() < n && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(5ms);
+    return size() >= n;
+  }
+};
+
+msg::Candidate candidate(std::uint32_t trial, const std::string& worker) {
+  msg::Candidate c;
+  c.study_id(1);
+  c.trial_id(trial);
+  c.worker_id(worker);
+  c.parameters(to_wire({{"frequency", 1.0}, {"hip_amplitude", 0.4}}));
+  return c;
+}
+
+TEST(Transport, ContentFilterDeliversOnlyTheWorkersOwnCandidates) {
+  Participant optimizer({.domain = 211, .name = "test-optimizer", .localhost_only = true});
+  Participant worker({.domain = 211, .name = "test-worker", .localhost_only = true});
+  Inbox<msg::Candidate> inbox;
+  Reader<msg::Candidate> reader(worker, "candidates_for_a", "worker_id = %0", {"'a'"},
+                                [&](const msg::Candidate& c) { inbox.push(c); });
+  Writer<msg::Candidate> writer(optimizer);
+  ASSERT_TRUE(writer.matched().wait_for(1, 10s));
+  for (std::uint32_t i = 0; i < 6; ++i) ASSERT_TRUE(writer.write(candidate(i, i % 2 ? "b" : "a")));
+  ASSERT_TRUE(inbox.wait_for(3, 10s));
+  std::this_thread::sleep_for(200ms);  // anything for 'b' would have arrived by now
+  std::lock_guard<std::mutex> lock(inbox.mutex);
+  ASSERT_EQ(inbox.samples.size(), 3u);
+  for (const auto& c : inbox.samples) {
+    EXPECT_EQ(c.worker_id().to_string(), "a");
+    EXPECT_EQ(from_wire(c.parameters()).at("hip_amplitude"), 0.4);
+  }
+}
+
+TEST(Transport, LateReaderGetsTransientLocalStatePerInstance) {
+  Participant optimizer({.domain = 212, .name = "test-optimizer", .localhost_only = true});
+  Writer<msg::StudyState> writer(optimizer);
+  for (std::uint32_t study = 1; study <= 20; ++study) {  // more than Fast DDS's default of 10 instances
+    msg::StudyState s;
+    s.study_id(study);
+    s.completed(study * 2);
+    ASSERT_TRUE(writer.write(s));
+    s.completed(study * 3);  // the newer sample replaces the older one
+    ASSERT_TRUE(writer.write(s));
+  }
+  Participant client({.domain = 212, .name = "test-client", .localhost_only = true});
+  Inbox<msg::StudyState> inbox;
+  Reader<msg::StudyState> reader(client, [&](const msg::StudyState& s) { inbox.push(s); });
+  ASSERT_TRUE(inbox.wait_for(20, 10s));
+  std::this_thread::sleep_for(100ms);
+  std::lock_guard<std::mutex> lock(inbox.mutex);
+  ASSERT_EQ(inbox.samples.size(), 20u);
+  for (const auto& s : inbox.samples) EXPECT_EQ(s.completed(), s.study_id() * 3);
+}
+
+TEST(Transport, ReaderHearsWhenAnInstanceIsUnregistered) {
+  Participant a({.domain = 213, .name = "test-worker", .localhost_only = true});
+  Participant b({.domain = 213, .name = "test-optimizer", .localhost_only = true});
+  Inbox<msg::WorkerAnnouncement> alive;
+  Inbox<msg::WorkerAnnouncement> gone;
+  Reader<msg::WorkerAnnouncement> reader(
+      b, [&](const msg::WorkerAnnouncement& w) { alive.push(w); },
+      [&](const msg::WorkerAnnouncement& key, InstanceGone) { gone.push(key); });
+  Writer<msg::WorkerAnnouncement> writer(a);
+  msg::WorkerAnnouncement w;
+  w.worker_id("w7");
+  w.worker_key(worker_key("w7"));
+  w.slots(3);
+  ASSERT_TRUE(writer.matched().wait_for(1, 10s));
+  ASSERT_TRUE(writer.write(w));
+  ASSERT_TRUE(alive.wait_for(1, 10s));
+  ASSERT_TRUE(writer.unregister(w));
+  ASSERT_TRUE(gone.wait_for(1, 10s));
+  std::lock_guard<std::mutex> lock(gone.mutex);
+  EXPECT_EQ(gone.samples[0].worker_key(), worker_key("w7"));
+  EXPECT_EQ(gone.samples[0].worker_id().to_string(), "w7");
+}
+
+TEST(Convert, RejectsBadParametersAndReports) {
+  EXPECT_FALSE(check_parameters(to_wire({{"frequency", 1.0}})).has_value());
+  EXPECT_TRUE(check_parameters(to_wire({{"frequency", std::nan("")}})).has_value());
+  EXPECT_TRUE(check_parameters(to_wire({{"no_such_parameter", 1.0}})).has_value());
+  EXPECT_TRUE(check_parameters({}).has_value());
+  msg::RolloutReport r;
+  r.worker_id("w");
+  r.ok(true);
+  EXPECT_FALSE(check_report(r).has_value());
+  r.cost(std::nan(""));
+  EXPECT_TRUE(check_report(r).has_value());
+  r.ok(false);  // a failed rollout's cost is not looked at
+  EXPECT_FALSE(check_report(r).has_value());
+}
+
+}  // namespace
+}  // namespace cpgmatch::dds
