@@ -17,7 +17,7 @@
 
 #include "commands.hpp"
 #include "optimization_loop.hpp"
-#include "study_config.hpp"
+#include "cpgmatch/study/study_config.hpp"
 
 namespace cpgmatch::cli {
 namespace {
@@ -146,7 +146,7 @@ json summarise(const std::vector<json>& trials, int initial) {
   return s;
 }
 
-void print_report(const json& s, const StudyConfig& cfg, const fs::path& dir, double wall) {
+void print_report(const json& s, const study::StudyConfig& cfg, const fs::path& dir, double wall) {
   fmt::print("\nstudy '{}': {} rollouts in {:.1f} s ({:.2f} rollouts/s)\n", cfg.name, s["rollouts"].get<int>(), wall,
              s["rollouts"].get<int>() / wall);
   if (!s.contains("best_cost")) {
@@ -190,8 +190,8 @@ void add_study_command(CLI::App& app) {
   run->add_flag("--quiet", opts->quiet, "no progress bar");
   run->add_flag("--json", opts->json, "print the summary as one JSON object");
   run->callback([opts] {
-    StudyConfig cfg;
-    if (!opts->config.empty()) cfg = load_study_config(opts->config);
+    study::StudyConfig cfg;
+    if (!opts->config.empty()) cfg = study::load_study_config(opts->config);
     const int workers = opts->workers > 0 ? opts->workers : std::max(1u, std::thread::hardware_concurrency());
     if (opts->workers < 0) throw InputError("--workers must be >= 1");
     const auto stamp = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());

@@ -1,4 +1,4 @@
-#include "study_config.hpp"
+#include "cpgmatch/study/study_config.hpp"
 
 #include <fmt/format.h>
 
@@ -7,12 +7,26 @@
 #include "cpgmatch/sim/terrain.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 
-namespace cpgmatch::cli {
+namespace cpgmatch::study {
 
-StudyConfig load_study_config(const std::string& path) {
-  const YamlReader r = YamlReader::from_file(path);
+namespace {
+
+StudyConfig parse(const YamlReader& r);
+
+}  // namespace
+
+StudyConfig load_study_config(const std::string& path) { return parse(YamlReader::from_file(path)); }
+
+StudyConfig load_study_config_text(const std::string& text, const std::string& source_name) {
+  return parse(YamlReader::from_string(text, source_name));
+}
+
+namespace {
+
+
+StudyConfig parse(const YamlReader& r) {
   r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
-                         "rollout", "terrain", "parameters", "fixed"});
+                         "rollout", "terrain", "parameters", "fixed", "lease_s"});
   StudyConfig s;
   s.name = r.require_string("name");
   s.budget = r.get_int("budget", s.budget);
@@ -41,6 +55,8 @@ StudyConfig load_study_config(const std::string& path) {
     if (s.entrain_s < 0.0) ro.fail("entrain_s", "must be >= 0");
     if (s.eval_s <= 0.0) ro.fail("eval_s", "must be > 0");
   }
+  s.lease_s = r.get_double("lease_s", 0.0);
+  if (s.lease_s < 0.0) r.fail("lease_s", "must be >= 0 (0: derived from the rollout length)");
   s.terrain = r.get_string("terrain", s.terrain);
   try {
     (void)sim::TerrainSpec::parse(s.terrain);
@@ -82,4 +98,5 @@ StudyConfig load_study_config(const std::string& path) {
   return s;
 }
 
-}  // namespace cpgmatch::cli
+}  // namespace
+}  // namespace cpgmatch::study

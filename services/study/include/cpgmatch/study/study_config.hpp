@@ -10,6 +10,7 @@
 //   terrain: flat
 //   parameters: [{name: hip_offset, low: -0.35, high: 0.35}, ...]   # the paper's six when omitted
 //   fixed: {frequency: 1.0, knee_amplitude: 0.5236}
+//   lease_s: 120            # wall seconds a worker may take per rollout before it is re-issued
 #pragma once
 
 #include <string>
@@ -17,7 +18,7 @@
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/bo/search_space.hpp"
 
-namespace cpgmatch::cli {
+namespace cpgmatch::study {
 
 struct StudyConfig {
   std::string name = "paper-study";
@@ -27,9 +28,14 @@ struct StudyConfig {
   double entrain_s = 10.0;
   double eval_s = 10.0;
   std::string terrain = "flat";
+  // Wall seconds a rollout may take before its candidate is re-issued; <= 0: derived from the rollout length.
+  double lease_s = 0.0;
+  double effective_lease_s() const { return lease_s > 0.0 ? lease_s : 60.0 + 3.0 * (entrain_s + eval_s); }
 };
 
 // Throws InputError naming the file, line and field.
 StudyConfig load_study_config(const std::string& path);
+// The same for a study file's text (a submitted study); `source_name` stands in for the file name.
+StudyConfig load_study_config_text(const std::string& text, const std::string& source_name);
 
-}  // namespace cpgmatch::cli
+}  // namespace cpgmatch::study

@@ -1,0 +1,81 @@
+// The study store: every study, every candidate issued and every report received, in one SQLite file
+// (WAL mode). The optimizer service writes here *before* it publishes a candidate or counts a report,
+// so a restart on the same file resumes each unfinished study exactly where it was: observations are
+// replayed into a fresh optimizer and candidates still in flight are issued again.
+//
+// Durability: synchronous=NORMAL by default, which survives a crash or SIGKILL of the process (the
+// failure the service is built for); `Durability::kFull` also survives power loss, at an fsync per commit.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+struct sqlite3;
+
+namespace cpgmatch::study {
+
+enum class Durability { kNormal, kFull };
+
+enum class TrialStatus { kInFlight, kDone };
+
+struct StoredTrial {
+  int trial_id = 0;
+  Eigen::VectorXd x;               // in the search space's units
+  TrialStatus status = TrialStatus::kInFlight;
+  int attempt = 0;
+  std::string worker_id;           // the worker it is (or was last) assigned to
+  double issued_at_s = 0.0;        // Unix time of the last issue
+  double reported_at_s = 0.0;
+  bool ok = false;                 // done: the rollout ran (a fall is ok)
+  double cost = 0.0;
+  nlohmann::json report;           // done: the full report
+};
+
+struct StoredStudy {
+  int study_id = 0;
+  std::string name;
+  std::string config_yaml;
+  std::string source_name;
+  std::string state;               // running | paused | done | failed | stopped
+  std::string message;
+  double created_at_s = 0.0;
+  std::vector<StoredTrial> trials; // by trial_id
+};
+
+class StudyStore {
+ public:
+  // Opens or creates the store; throws std::runtime_error naming the path on failure.
+  explicit StudyStore(const std::string& path, Durability durability = Durability::kNormal);
+  ~StudyStore();
+  StudyStore(const StudyStore&) = delete;
+  StudyStore& operator=(const StudyStore&) = delete;
+
+  int create_study(const std::string& name, const std::string& config_yaml, const std::string& source_name,
+                   double now_s);
+  void set_state(int study_id, const std::string& state, const std::string& message);
+  // Inserts new in-flight trials in one transaction.
+  void add_trials(int study_id, const std::vector<StoredTrial>& trials);
+  // Records a new issue of an in-flight trial (after its worker was lost or its lease ran out).
+  void reissue(int study_id, int trial_id, int attempt, const std::string& worker_id, double now_s);
+  // Marks an in-flight trial done with its report. False (and no change) when it was already done:
+  // that is how a late duplicate report is never counted twice.
+  bool complete_trial(int study_id, int trial_id, bool ok, double cost, const nlohmann::json& report, double now_s);
+
+  std::vector<StoredStudy> load_all() const;
+  std::optional<StoredStudy> load(int study_id) const;
+  const std::string& path() const { return path_; }
+
+ private:
+  void exec(const std::string& sql) const;
+  std::string path_;
+  sqlite3* db_ = nullptr;
+};
+
+std::string to_string(TrialStatus s);
+
+}  // namespace cpgmatch::study

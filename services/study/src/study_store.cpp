@@ -1,0 +1,210 @@
+#include "cpgmatch/study/study_store.hpp"
+
+#include <sqlite3.h>
+
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace cpgmatch::study {
+
+namespace {
+
+// A prepared statement that finalizes itself; bind() takes 1-based positions like SQLite.
+class Statement {
+ public:
+  Statement(sqlite3* db, const char* sql) : db_(db) {
+    if (sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr) != SQLITE_OK) {
+      throw std::runtime_error(fmt::format("study store: cannot prepare '{}': {}", sql, sqlite3_errmsg(db)));
+    }
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  Statement& bind(int i, int v) { return check(sqlite3_bind_int(stmt_, i, v)); }
+  Statement& bind(int i, double v) { return check(sqlite3_bind_double(stmt_, i, v)); }
+  Statement& bind(int i, const std::string& v) {
+    return check(sqlite3_bind_text(stmt_, i, v.c_str(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
+  }
+  // True while there is a row.
+  bool step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    throw std::runtime_error(fmt::format("study store: {}", sqlite3_errmsg(db_)));
+  }
+  void run() {
+    while (step()) {
+    }
+  }
+  // Ready to bind and run again.
+  void reset() {
+    sqlite3_reset(stmt_);
+    sqlite3_clear_bindings(stmt_);
+  }
+  int column_int(int i) const { return sqlite3_column_int(stmt_, i); }
+  double column_double(int i) const { return sqlite3_column_double(stmt_, i); }
+  std::string column_text(int i) const {
+    const auto* t = sqlite3_column_text(stmt_, i);
+    return t ? reinterpret_cast<const char*>(t) : "";
+  }
+
+ private:
+  Statement& check(int rc) {
+    if (rc != SQLITE_OK) throw std::runtime_error(fmt::format("study store: bind: {}", sqlite3_errmsg(db_)));
+    return *this;
+  }
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+nlohmann::json vector_json(const Eigen::VectorXd& x) {
+  nlohmann::json a = nlohmann::json::array();
+  for (int i = 0; i < x.size(); ++i) a.push_back(x[i]);
+  return a;
+}
+
+Eigen::VectorXd json_vector(const nlohmann::json& a) {
+  Eigen::VectorXd x(static_cast<int>(a.size()));
+  for (std::size_t i = 0; i < a.size(); ++i) x[static_cast<int>(i)] = a[i].get<double>();
+  return x;
+}
+
+}  // namespace
+
+std::string to_string(TrialStatus s) { return s == TrialStatus::kDone ? "done" : "in_flight"; }
+
+StudyStore::StudyStore(const std::string& path, Durability durability) : path_(path) {
+  if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                      nullptr) != SQLITE_OK) {
+    const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw std::runtime_error(fmt::format("study store {}: cannot open: {}", path, why));
+  }
+  sqlite3_busy_timeout(db_, 5000);
+  try {
+    exec("PRAGMA journal_mode=WAL");
+    exec(durability == Durability::kFull ? "PRAGMA synchronous=FULL" : "PRAGMA synchronous=NORMAL");
+    exec("PRAGMA foreign_keys=ON");
+    exec(R"(CREATE TABLE IF NOT EXISTS studies(
+             study_id INTEGER PRIMARY KEY AUTOINCREMENT,
+             name TEXT NOT NULL, config_yaml TEXT NOT NULL, source_name TEXT NOT NULL,
+             state TEXT NOT NULL, message TEXT NOT NULL DEFAULT '', created_at REAL NOT NULL))");
+    exec(R"(CREATE TABLE IF NOT EXISTS trials(
+             study_id INTEGER NOT NULL REFERENCES studies(study_id),
+             trial_id INTEGER NOT NULL,
+             x_json TEXT NOT NULL,
+             status TEXT NOT NULL CHECK(status IN ('in_flight', 'done')),
+             attempt INTEGER NOT NULL, worker_id TEXT NOT NULL,
+             issued_at REAL NOT NULL, reported_at REAL NOT NULL DEFAULT 0,
+             ok INTEGER NOT NULL DEFAULT 0, cost REAL NOT NULL DEFAULT 0, report_json TEXT NOT NULL DEFAULT 'null',
+             PRIMARY KEY(study_id, trial_id)))");
+  } catch (const std::exception& e) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw std::runtime_error(fmt::format("study store {}: {}", path, e.what()));
+  }
+}
+
+StudyStore::~StudyStore() { sqlite3_close(db_); }
+
+void StudyStore::exec(const std::string& sql) const {
+  char* error = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
+    const std::string why = error ? error : "unknown error";
+    sqlite3_free(error);
+    throw std::runtime_error(fmt::format("study store: {}: {}", sql.substr(0, 60), why));
+  }
+}
+
+int StudyStore::create_study(const std::string& name, const std::string& config_yaml, const std::string& source_name,
+                             double now_s) {
+  Statement s(db_, "INSERT INTO studies(name, config_yaml, source_name, state, created_at) VALUES(?, ?, ?, 'running', ?)");
+  s.bind(1, name).bind(2, config_yaml).bind(3, source_name).bind(4, now_s).run();
+  return static_cast<int>(sqlite3_last_insert_rowid(db_));
+}
+
+void StudyStore::set_state(int study_id, const std::string& state, const std::string& message) {
+  Statement s(db_, "UPDATE studies SET state = ?, message = ? WHERE study_id = ?");
+  s.bind(1, state).bind(2, message).bind(3, study_id).run();
+}
+
+void StudyStore::add_trials(int study_id, const std::vector<StoredTrial>& trials) {
+  exec("BEGIN IMMEDIATE");
+  try {
+    Statement s(db_, R"(INSERT INTO trials(study_id, trial_id, x_json, status, attempt, worker_id, issued_at)
+                        VALUES(?, ?, ?, 'in_flight', ?, ?, ?))");
+    for (const auto& t : trials) {
+      s.bind(1, study_id).bind(2, t.trial_id).bind(3, vector_json(t.x).dump()).bind(4, t.attempt);
+      s.bind(5, t.worker_id).bind(6, t.issued_at_s).run();
+      s.reset();
+    }
+    exec("COMMIT");
+  } catch (...) {
+    exec("ROLLBACK");
+    throw;
+  }
+}
+
+void StudyStore::reissue(int study_id, int trial_id, int attempt, const std::string& worker_id, double now_s) {
+  Statement s(db_, "UPDATE trials SET attempt = ?, worker_id = ?, issued_at = ? WHERE study_id = ? AND trial_id = ? AND status = 'in_flight'");
+  s.bind(1, attempt).bind(2, worker_id).bind(3, now_s).bind(4, study_id).bind(5, trial_id).run();
+}
+
+bool StudyStore::complete_trial(int study_id, int trial_id, bool ok, double cost, const nlohmann::json& report,
+                                double now_s) {
+  Statement s(db_, R"(UPDATE trials SET status = 'done', ok = ?, cost = ?, report_json = ?, reported_at = ?
+                      WHERE study_id = ? AND trial_id = ? AND status = 'in_flight')");
+  s.bind(1, ok ? 1 : 0).bind(2, cost).bind(3, report.dump()).bind(4, now_s).bind(5, study_id).bind(6, trial_id).run();
+  return sqlite3_changes(db_) == 1;
+}
+
+std::vector<StoredStudy> StudyStore::load_all() const {
+  std::vector<StoredStudy> out;
+  {
+    Statement s(db_, "SELECT study_id, name, config_yaml, source_name, state, message, created_at FROM studies ORDER BY study_id");
+    while (s.step()) {
+      StoredStudy st;
+      st.study_id = s.column_int(0);
+      st.name = s.column_text(1);
+      st.config_yaml = s.column_text(2);
+      st.source_name = s.column_text(3);
+      st.state = s.column_text(4);
+      st.message = s.column_text(5);
+      st.created_at_s = s.column_double(6);
+      out.push_back(std::move(st));
+    }
+  }
+  Statement s(db_, R"(SELECT study_id, trial_id, x_json, status, attempt, worker_id, issued_at, reported_at, ok, cost,
+                      report_json FROM trials ORDER BY study_id, trial_id)");
+  std::size_t k = 0;
+  while (s.step()) {
+    const int study_id = s.column_int(0);
+    while (k < out.size() && out[k].study_id != study_id) ++k;
+    if (k == out.size()) throw std::runtime_error(fmt::format("study store {}: trial of unknown study {}", path_, study_id));
+    StoredTrial t;
+    t.trial_id = s.column_int(1);
+    t.x = json_vector(nlohmann::json::parse(s.column_text(2)));
+    t.status = s.column_text(3) == "done" ? TrialStatus::kDone : TrialStatus::kInFlight;
+    t.attempt = s.column_int(4);
+    t.worker_id = s.column_text(5);
+    t.issued_at_s = s.column_double(6);
+    t.reported_at_s = s.column_double(7);
+    t.ok = s.column_int(8) != 0;
+    t.cost = s.column_double(9);
+    t.report = nlohmann::json::parse(s.column_text(10));
+    out[k].trials.push_back(std::move(t));
+  }
+  return out;
+}
+
+std::optional<StoredStudy> StudyStore::load(int study_id) const {
+  for (auto& s : load_all()) {
+    if (s.study_id == study_id) return s;
+  }
+  return std::nullopt;
+}
+
+}  // namespace cpgmatch::study
