@@ -1,0 +1,468 @@
+#include "cpgmatch/service/coordinator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/errors.hpp"
+
+namespace cpgmatch::service {
+
+namespace {
+
+// A study state sample at most this often while nothing terminal happens (a busy study would
+// otherwise publish one per report).
+constexpr double kStatePublishPeriod_s = 0.1;
+
+msg::StudyStatus status_of(const std::string& state) {
+  if (state == "paused") return msg::STUDY_PAUSED;
+  if (state == "done") return msg::STUDY_DONE;
+  if (state == "failed") return msg::STUDY_FAILED;
+  if (state == "stopped") return msg::STUDY_STOPPED;
+  return msg::STUDY_RUNNING;
+}
+
+}  // namespace
+
+Coordinator::Coordinator(study::StudyStore& store, Outbox& outbox, CoordinatorOptions options, LogFn log_info,
+                         LogFn log_warning)
+    : store_(store), out_(outbox), options_(std::move(options)), info_(std::move(log_info)), warn_(std::move(log_warning)) {}
+
+void Coordinator::reject(const std::string& what, const std::string& why) {
+  ++rejected_;
+  warn_(fmt::format("rejected {}: {}", what, why));
+}
+
+Coordinator::Study* Coordinator::find_study(int study_id) {
+  const auto it = studies_.find(study_id);
+  return it == studies_.end() ? nullptr : &it->second;
+}
+
+bool Coordinator::idle() const {
+  for (const auto& [id, s] : studies_) {
+    if (s.state == "running" || !s.in_flight.empty()) return false;
+  }
+  return true;
+}
+
+// ---- studies -------------------------------------------------------------------------------------
+
+void Coordinator::resume_from_store(double now_s) {
+  for (const study::StoredStudy& stored : store_.load_all()) {
+    Study s;
+    s.id = stored.study_id;
+    s.name = stored.name;
+    s.state = stored.state;
+    s.message = stored.message;
+    s.created_at_s = stored.created_at_s;
+    try {
+      s.config = study::load_study_config_text(stored.config_yaml, stored.source_name);
+    } catch (const std::exception& e) {
+      // Cannot happen for a study this service accepted, unless the file was edited by hand.
+      warn_(fmt::format("study {} in {}: its configuration no longer loads ({}); marked failed", s.id, store_.path(),
+                        e.what()));
+      s.state = "failed";
+      s.message = e.what();
+      store_.set_state(s.id, s.state, s.message);
+      continue;
+    }
+    open_study(std::move(s), &stored, now_s);
+  }
+  if (!studies_.empty()) info_(fmt::format("resumed {} studies from {}", studies_.size(), store_.path()));
+}
+
+void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, double now_s) {
+  const int id = fresh.id;
+  auto [it, inserted] = studies_.emplace(id, std::move(fresh));
+  Study& s = it->second;
+  std::vector<bo::Observation> observations;
+  std::vector<std::pair<int, const study::StoredTrial*>> done;
+  if (stored != nullptr) {
+    for (const auto& t : stored->trials) {
+      s.next_trial_id = std::max(s.next_trial_id, t.trial_id + 1);
+      if (t.status == study::TrialStatus::kDone) {
+        observations.push_back({t.x, t.cost, !t.ok});
+        done.emplace_back(t.trial_id, &t);
+      } else {
+        s.in_flight[t.trial_id] = InFlight{t.x, t.attempt, "", 0.0};  // re-issued once a slot is free
+      }
+    }
+  }
+  s.optimizer = std::make_unique<bo::BayesianOptimizer>(
+      observations.empty() ? bo::BayesianOptimizer(s.config.space, s.config.optimizer)
+                           : bo::BayesianOptimizer::rebuild(s.config.space, s.config.optimizer, observations));
+  for (const auto& [trial_id, t] : done) {
+    msg::RolloutReport report;
+    try {
+      report = dds::report_from_json(t->report);
+    } catch (const std::exception& e) {
+      warn_(fmt::format("study {} trial {}: stored report unreadable ({}); counted as failed", id, trial_id, e.what()));
+      report.ok(false);
+      report.error("stored report unreadable");
+    }
+    count_report(s, trial_id, t->x, report);
+    out_.publish_trial(make_trial_record(s, trial_id, t->x, report));
+  }
+  s.session_start_s = now_s;
+  s.completed_at_session_start = s.completed;
+  if (!s.in_flight.empty()) {
+    info_(fmt::format("study {} '{}': {} observations replayed, {} candidates in flight to re-issue", id, s.name,
+                      s.completed, s.in_flight.size()));
+  }
+  finish_if_complete(s);
+  s.dirty = true;
+}
+
+void Coordinator::submit(const msg::StudyCommand& command, double now_s, msg::CommandReply& reply) {
+  const std::string source = command.source_name().size() ? command.source_name().to_string() : "submitted study";
+  study::StudyConfig config;
+  try {
+    config = study::load_study_config_text(command.study_yaml(), source);
+  } catch (const std::exception& e) {
+    reply.ok(false);
+    reply.message(e.what());
+    warn_(fmt::format("submit from {} refused: {}", command.client_id().to_string(), e.what()));
+    return;
+  }
+  Study s;
+  s.name = config.name;
+  s.config = std::move(config);
+  s.created_at_s = now_s;
+  s.id = store_.create_study(s.name, command.study_yaml(), source, now_s);
+  const int id = s.id;
+  info_(fmt::format("study {} '{}' submitted: budget {}, {} parameters", id, s.name, s.config.budget,
+                    s.config.space.size()));
+  open_study(std::move(s), nullptr, now_s);
+  reply.ok(true);
+  reply.study_id(static_cast<std::uint32_t>(id));
+  reply.message(fmt::format("study {} '{}' accepted", id, studies_.at(id).name));
+}
+
+void Coordinator::handle_command(const msg::StudyCommand& command, double now_s) {
+  msg::CommandReply reply;
+  reply.correlation_id(command.correlation_id());
+  reply.client_id(command.client_id());
+  reply.study_id(command.study_id());
+  reply.ok(false);
+  try {
+    if (command.kind() == msg::COMMAND_SUBMIT) {
+      submit(command, now_s, reply);
+    } else {
+      Study* s = find_study(static_cast<int>(command.study_id()));
+      if (s == nullptr) {
+        reply.message(fmt::format("no study {}", command.study_id()));
+      } else {
+        std::string target;
+        if (command.kind() == msg::COMMAND_PAUSE && s->state == "running") target = "paused";
+        if (command.kind() == msg::COMMAND_RESUME && s->state == "paused") target = "running";
+        if (command.kind() == msg::COMMAND_STOP && is_open(*s)) target = "stopped";
+        if (target.empty()) {
+          reply.message(fmt::format("study {} is {}: nothing to do", s->id, s->state));
+          reply.ok(s->state == (command.kind() == msg::COMMAND_PAUSE    ? "paused"
+                                : command.kind() == msg::COMMAND_RESUME ? "running"
+                                                                        : "stopped"));
+        } else {
+          store_.set_state(s->id, target, "");
+          s->state = target;
+          s->dirty = true;
+          reply.ok(true);
+          reply.message(fmt::format("study {} is {}", s->id, target));
+          info_(reply.message().to_string());
+          publish_state(*s, now_s);
+        }
+      }
+    }
+  } catch (const std::exception& e) {
+    reply.ok(false);
+    reply.message(fmt::format("internal error: {}", e.what()));
+    warn_(reply.message().to_string());
+  }
+  out_.reply(reply);
+}
+
+// ---- workers -------------------------------------------------------------------------------------
+
+void Coordinator::handle_worker(const msg::WorkerAnnouncement& w, double now_s) {
+  const std::string id = w.worker_id().to_string();
+  if (id.empty()) return reject("worker announcement", "empty worker_id");
+  if (w.worker_key() != dds::worker_key(id)) return reject("worker announcement " + id, "worker_key is not the hash of worker_id");
+  if (w.slots() < 1 || w.slots() > 4096) return reject("worker announcement " + id, fmt::format("slots = {}", w.slots()));
+  auto [it, is_new] = workers_.try_emplace(id);
+  Worker& worker = it->second;
+  worker.id = id;
+  worker.key = w.worker_key();
+  worker.slots = static_cast<int>(w.slots());
+  worker.accepting = w.accepting();
+  worker.last_seen_s = now_s;
+  if (is_new) {
+    info_(fmt::format("worker {} joined: {} slots, {} on {}", id, w.slots(), dds::to_string(w.kind()), w.host().to_string()));
+    for (auto& [sid, s] : studies_) s.dirty = true;
+  }
+}
+
+void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s) {
+  for (const auto& [id, w] : workers_) {
+    if (w.key == worker_key) return drop_worker(id, "left the domain", now_s);
+  }
+}
+
+void Coordinator::unassign(Study& study, int trial_id, const std::string& why) {
+  auto it = study.in_flight.find(trial_id);
+  if (it == study.in_flight.end() || it->second.worker_id.empty()) return;
+  info_(fmt::format("study {} trial {}: re-issuing ({} from {})", study.id, trial_id, why, it->second.worker_id));
+  it->second.worker_id.clear();
+  ++study.reissued;
+  study.dirty = true;
+}
+
+void Coordinator::drop_worker(const std::string& worker_id, const std::string& why, double) {
+  const auto it = workers_.find(worker_id);
+  if (it == workers_.end()) return;
+  const auto assigned = it->second.assigned;
+  workers_.erase(it);
+  info_(fmt::format("worker {} {} with {} candidates assigned", worker_id, why, assigned.size()));
+  for (const auto& [study_id, trial_id] : assigned) {
+    if (Study* s = find_study(study_id)) unassign(*s, trial_id, "worker " + why);
+  }
+  for (auto& [sid, s] : studies_) s.dirty = true;
+}
+
+// ---- candidates ----------------------------------------------------------------------------------
+
+msg::Candidate Coordinator::make_candidate(const Study& study, int trial_id, const InFlight& f) const {
+  msg::Candidate c;
+  c.study_id(static_cast<std::uint32_t>(study.id));
+  c.trial_id(static_cast<std::uint32_t>(trial_id));
+  c.attempt(static_cast<std::uint32_t>(f.attempt));
+  c.worker_id(f.worker_id);
+  c.lease_s(study.config.effective_lease_s());
+  msg::RolloutSpec spec;
+  spec.entrain_s(study.config.entrain_s);
+  spec.eval_s(study.config.eval_s);
+  spec.terrain(study.config.terrain);
+  spec.seed(study.config.optimizer.seed);
+  c.rollout(spec);
+  std::map<std::string, double> full = to_map(options_.base_parameters);
+  for (const auto& [name, value] : study.config.space.to_named(f.x)) full[name] = value;
+  c.parameters(dds::to_wire(full));
+  return c;
+}
+
+void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue) {
+  InFlight& f = study.in_flight.at(trial_id);
+  if (reissue) {
+    ++f.attempt;
+    store_.reissue(study.id, trial_id, f.attempt, worker.id, now_s);
+  }
+  f.worker_id = worker.id;
+  f.deadline_s = now_s + study.config.effective_lease_s();
+  worker.assigned.insert({study.id, trial_id});
+  out_.send_candidate(make_candidate(study, trial_id, f));
+  study.dirty = true;
+}
+
+void Coordinator::fill_free_slots(double now_s) {
+  // Free slots, one entry per slot, spread across workers (most free first).
+  std::vector<Worker*> slots;
+  {
+    std::vector<Worker*> ready;
+    for (auto& [id, w] : workers_) {
+      if (w.accepting && static_cast<int>(w.assigned.size()) < w.slots) ready.push_back(&w);
+    }
+    std::map<Worker*, int> free;
+    for (Worker* w : ready) free[w] = w->slots - static_cast<int>(w->assigned.size());
+    bool any = true;
+    while (any) {
+      any = false;
+      for (Worker* w : ready) {
+        if (free[w] > 0) {
+          slots.push_back(w);
+          --free[w];
+          any = true;
+        }
+      }
+    }
+  }
+  if (slots.empty() || studies_.empty()) return;
+  std::vector<Study*> order;
+  for (auto& [id, s] : studies_) order.push_back(&s);
+  std::rotate(order.begin(), order.begin() + (round_robin_++ % static_cast<int>(order.size())), order.end());
+
+  std::size_t next_slot = 0;
+  for (Study* s : order) {
+    if (s->state != "running") continue;
+    // Re-issues first: they are the oldest work.
+    for (auto& [trial_id, f] : s->in_flight) {
+      if (next_slot == slots.size()) return;
+      if (f.worker_id.empty()) issue(*s, trial_id, *slots[next_slot++], now_s, true);
+    }
+    const int remaining = s->config.budget - s->completed - static_cast<int>(s->in_flight.size());
+    const int n = std::min<int>(remaining, static_cast<int>(slots.size() - next_slot));
+    if (n <= 0) continue;
+    std::vector<Eigen::VectorXd> pending;
+    for (const auto& [trial_id, f] : s->in_flight) pending.push_back(f.x);
+    std::vector<Eigen::VectorXd> points;
+    try {
+      points = s->optimizer->ask(n, pending);
+    } catch (const std::exception& e) {
+      warn_(fmt::format("study {}: ask({}) failed: {}", s->id, n, e.what()));
+      continue;
+    }
+    std::vector<study::StoredTrial> stored;
+    for (const auto& x : points) {
+      study::StoredTrial t;
+      t.trial_id = s->next_trial_id++;
+      t.x = x;
+      t.worker_id = slots[next_slot + stored.size()]->id;
+      t.issued_at_s = now_s;
+      stored.push_back(std::move(t));
+    }
+    store_.add_trials(s->id, stored);  // committed before anything is published
+    for (const auto& t : stored) {
+      s->in_flight[t.trial_id] = InFlight{t.x, 0, "", 0.0};
+      issue(*s, t.trial_id, *slots[next_slot++], now_s, false);
+    }
+  }
+}
+
+// ---- reports -------------------------------------------------------------------------------------
+
+void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
+  const std::string what = fmt::format("report for study {} trial {} from {}", r.study_id(), r.trial_id(),
+                                       r.worker_id().to_string());
+  if (auto why = dds::check_report(r)) return reject(what, *why);
+  Study* s = find_study(static_cast<int>(r.study_id()));
+  if (s == nullptr) return reject(what, "unknown study");
+  const int trial_id = static_cast<int>(r.trial_id());
+  const auto it = s->in_flight.find(trial_id);
+  if (it == s->in_flight.end()) {
+    if (trial_id < s->next_trial_id) {
+      info_(fmt::format("ignored a duplicate {} (already counted)", what));
+      return;
+    }
+    return reject(what, "no such candidate was ever issued");
+  }
+  if (static_cast<int>(r.attempt()) > it->second.attempt) {
+    return reject(what, fmt::format("attempt {} was never issued (last: {})", r.attempt(), it->second.attempt));
+  }
+  const Eigen::VectorXd x = it->second.x;
+  if (!store_.complete_trial(s->id, trial_id, r.ok(), r.ok() ? r.cost() : 0.0, dds::to_json(r), now_s)) {
+    info_(fmt::format("ignored a duplicate {} (already in the store)", what));
+    return;
+  }
+  if (auto w = workers_.find(it->second.worker_id); w != workers_.end()) w->second.assigned.erase({s->id, trial_id});
+  msg::Candidate retired = make_candidate(*s, trial_id, it->second);
+  s->in_flight.erase(it);
+  count_report(*s, trial_id, x, r);
+  out_.retire_candidate(retired);
+  out_.publish_trial(make_trial_record(*s, trial_id, x, r));
+  if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id().to_string(), r.error().to_string()));
+  if (s->state == "running" && s->consecutive_failures >= options_.max_consecutive_failures) {
+    s->state = "failed";
+    s->message = fmt::format("{} rollouts in a row could not run; last error: {}", s->consecutive_failures,
+                             r.error().to_string());
+    store_.set_state(s->id, s->state, s->message);
+    warn_(fmt::format("study {} failed: {}", s->id, s->message));
+  }
+  finish_if_complete(*s);
+  if (!is_open(*s)) publish_state(*s, now_s);
+}
+
+void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
+  ++s.completed;
+  s.dirty = true;
+  if (!r.ok()) {
+    ++s.failed;
+    ++s.consecutive_failures;
+    s.optimizer->tell_failure(x);
+    return;
+  }
+  s.consecutive_failures = 0;
+  if (r.fell()) ++s.falls;
+  s.optimizer->tell(x, r.cost());
+  if (!(r.cost() >= s.best_cost)) {  // also true while best_cost is NaN
+    s.best_cost = r.cost();
+    s.best_trial = trial_id;
+    s.best_params = s.config.space.to_named(x);
+    s.best_normalized_torque = r.normalized_torque();
+    s.best_speed_mps = r.mean_speed_mps();
+  }
+}
+
+void Coordinator::finish_if_complete(Study& s) {
+  if (s.state != "running" || s.completed < s.config.budget) return;
+  s.state = "done";
+  s.message = fmt::format("{} rollouts, best cost {:.4g} (trial {})", s.completed, s.best_cost, s.best_trial);
+  store_.set_state(s.id, s.state, s.message);
+  info_(fmt::format("study {} '{}' done: {}", s.id, s.name, s.message));
+  s.dirty = true;
+}
+
+msg::TrialRecord Coordinator::make_trial_record(const Study& s, int trial_id, const Eigen::VectorXd& x,
+                                                const msg::RolloutReport& r) const {
+  msg::TrialRecord t;
+  t.study_id(static_cast<std::uint32_t>(s.id));
+  t.trial_id(static_cast<std::uint32_t>(trial_id));
+  t.initial(trial_id < s.config.optimizer.initial_points);
+  t.parameters(dds::to_wire(s.config.space.to_named(x)));
+  msg::RolloutReport report = r;
+  report.study_id(t.study_id());
+  report.trial_id(t.trial_id());
+  t.report(report);
+  return t;
+}
+
+// ---- time ----------------------------------------------------------------------------------------
+
+void Coordinator::publish_state(Study& s, double now_s) {
+  msg::StudyState st;
+  st.study_id(static_cast<std::uint32_t>(s.id));
+  st.name(s.name);
+  st.state(status_of(s.state));
+  st.budget(static_cast<std::uint32_t>(s.config.budget));
+  st.completed(static_cast<std::uint32_t>(s.completed));
+  st.in_flight(static_cast<std::uint32_t>(s.in_flight.size()));
+  st.failed(static_cast<std::uint32_t>(s.failed));
+  st.falls(static_cast<std::uint32_t>(s.falls));
+  st.reissued(static_cast<std::uint32_t>(s.reissued));
+  st.workers(static_cast<std::uint32_t>(workers_.size()));
+  st.best_cost(s.best_cost);
+  st.best_trial(static_cast<std::uint32_t>(s.best_trial));
+  st.best_params(dds::to_wire(s.best_params));
+  st.best_normalized_torque(s.best_normalized_torque);
+  st.best_speed_mps(s.best_speed_mps);
+  st.elapsed_s(now_s - s.created_at_s);
+  const double session = now_s - s.session_start_s;
+  st.rollouts_per_s(session > 0.0 ? (s.completed - s.completed_at_session_start) / session : 0.0);
+  st.message(s.message);
+  out_.publish_state(st);
+  s.dirty = false;
+  last_state_publish_[s.id] = now_s;
+}
+
+void Coordinator::tick(double now_s) {
+  std::vector<std::string> silent;
+  for (const auto& [id, w] : workers_) {
+    if (now_s - w.last_seen_s > options_.worker_timeout_s) silent.push_back(id);
+  }
+  for (const auto& id : silent) drop_worker(id, fmt::format("silent for over {:.1f} s", options_.worker_timeout_s), now_s);
+  for (auto& [sid, s] : studies_) {
+    for (auto& [trial_id, f] : s.in_flight) {
+      if (f.worker_id.empty() || now_s <= f.deadline_s) continue;
+      if (auto w = workers_.find(f.worker_id); w != workers_.end()) w->second.assigned.erase({s.id, trial_id});
+      unassign(s, trial_id, "lease expired");
+    }
+  }
+  fill_free_slots(now_s);
+  for (auto& [sid, s] : studies_) {
+    const auto last = last_state_publish_.find(sid);
+    if (s.dirty && (last == last_state_publish_.end() || now_s - last->second >= kStatePublishPeriod_s)) {
+      publish_state(s, now_s);
+    }
+  }
+}
+
+}  // namespace cpgmatch::service
