@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "command_objective.hpp"
+#include "cpgmatch/command_objective.hpp"
 #include "cpgmatch/bo/optimizer.hpp"
 
 namespace cpgmatch::cli {

@@ -2,7 +2,7 @@
 // place that creates Fast DDS entities; the rest of the service code works with the generated message
 // structs and these two templates.
 //
-//   dds::Participant p({.domain = 7, .name = "optimizer"});
+//   dds::Participant p(dds::ParticipantConfig{7, "optimizer", false});
 //   dds::Writer<msg::Candidate> out(p);
 //   dds::Reader<msg::RolloutReport> in(p, [&](const msg::RolloutReport& r) { queue.push(r); });
 //

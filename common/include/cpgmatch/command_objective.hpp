@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-namespace cpgmatch::cli {
+namespace cpgmatch {
 
 struct EvaluationOutcome {
   bool ok = false;
@@ -21,4 +21,4 @@ EvaluationOutcome run_command_objective(const std::string& command, const std::s
 // Path of the running executable (to call our own subcommands as child processes).
 std::string self_executable();
 
-}  // namespace cpgmatch::cli
+}  // namespace cpgmatch

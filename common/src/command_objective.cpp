@@ -1,4 +1,4 @@
-#include "command_objective.hpp"
+#include "cpgmatch/command_objective.hpp"
 
 #include <poll.h>
 #include <signal.h>
@@ -14,7 +14,7 @@
 
 #include <fmt/format.h>
 
-namespace cpgmatch::cli {
+namespace cpgmatch {
 
 std::string self_executable() {
   char buf[4096];
@@ -115,4 +115,4 @@ EvaluationOutcome run_command_objective(const std::string& command, const std::s
   return out;
 }
 
-}  // namespace cpgmatch::cli
+}  // namespace cpgmatch

@@ -1,0 +1,127 @@
+#include "rollout_slot.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/command_objective.hpp"
+#include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/params.hpp"
+#include "cpgmatch/sim/sim_rollout.hpp"
+
+namespace cpgmatch::worker {
+
+namespace {
+
+std::string quote(const std::string& s) {
+  std::string out = "'";
+  for (char ch : s) out += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+  return out + "'";
+}
+
+msg::RolloutReport failed(const msg::Candidate& c, const SlotOptions& o, const std::string& why) {
+  msg::RolloutReport r;
+  r.study_id(c.study_id());
+  r.trial_id(c.trial_id());
+  r.attempt(c.attempt());
+  r.worker_id(o.worker_id);
+  r.worker_kind(msg::WORKER_SIM);
+  r.ok(false);
+  r.error(why.substr(0, 255));
+  r.cost(std::nan(""));
+  r.fall_time_s(-1.0);
+  return r;
+}
+
+std::optional<std::string> check_spec(const msg::RolloutSpec& s) {
+  if (!std::isfinite(s.entrain_s()) || s.entrain_s() < 0.0) return fmt::format("rollout.entrain_s = {}", s.entrain_s());
+  if (!std::isfinite(s.eval_s()) || s.eval_s() <= 0.0) return fmt::format("rollout.eval_s = {}", s.eval_s());
+  try {
+    (void)sim::TerrainSpec::parse(s.terrain().to_string());
+  } catch (const InputError& e) {
+    return fmt::format("rollout.terrain: {}", e.what());
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+nlohmann::json rollout_request(const msg::Candidate& c) {
+  nlohmann::json params = nlohmann::json::object();
+  for (const auto& [name, value] : dds::from_wire(c.parameters())) params[name] = value;
+  return {{"params", params},
+          {"entrain_s", c.rollout().entrain_s()},
+          {"eval_s", c.rollout().eval_s()},
+          {"terrain", c.rollout().terrain().to_string()},
+          {"seed", c.rollout().seed()}};
+}
+
+nlohmann::json run_rollout_request(const nlohmann::json& request) {
+  sim::SimRolloutJob job;
+  try {
+    job.model = sim::load_morti_model(sim::default_model_path());
+    job.settings = load_rollout_settings(sim::default_rollout_settings_path());
+    job.params = load_parameters(sim::default_params_path());
+    job.terrain = sim::TerrainSpec::parse(request.at("terrain").get<std::string>());
+    job.seed = request.at("seed").get<std::uint64_t>();
+    job.settings.entrain_s = request.at("entrain_s").get<double>();
+    job.settings.eval_s = request.at("eval_s").get<double>();
+    for (const auto& [name, value] : request.at("params").items()) {
+      set_parameter(job.params, name, value.get<double>(), "request");
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("rollout request: {}", e.what()));
+  }
+  const RolloutResult result = sim::run_sim_rollout(job);
+  msg::RolloutReport r;
+  dds::fill_report(r, result);
+  r.ok(true);
+  return dds::to_json(r);
+}
+
+msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions& o) {
+  if (auto why = dds::check_parameters(c.parameters())) return failed(c, o, "bad parameters: " + *why);
+  if (auto why = check_spec(c.rollout())) return failed(c, o, "bad rollout spec: " + *why);
+  msg::RolloutReport r;
+  const auto start = std::chrono::steady_clock::now();
+  if (o.fake_rollout_s >= 0.0) {
+    // Service benchmarks: a fixed delay and a smooth synthetic cost (squared distance of the
+    // parameters from the middle of their ranges), so the optimizer still has something to minimise.
+    std::this_thread::sleep_for(std::chrono::duration<double>(o.fake_rollout_s));
+    double cost = 0.0;
+    for (const auto& [name, value] : dds::from_wire(c.parameters())) {
+      const ParameterInfo& info = parameter_info(name);
+      const double u = (value - 0.5 * (info.low + info.high)) / (info.high - info.low);
+      cost += u * u;
+    }
+    r.ok(true);
+    r.cost(cost);
+    r.fell(false);
+    r.fall_time_s(-1.0);
+  } else {
+    const std::string command = fmt::format("{} --run-one", quote(self_executable()));
+    const double timeout = c.lease_s() > 0.0 ? c.lease_s() : 600.0;
+    const EvaluationOutcome outcome = run_command_objective(command, rollout_request(c).dump(), timeout);
+    if (!outcome.ok) return failed(c, o, outcome.message);
+    if (outcome.stdout_lines.size() < 2) return failed(c, o, "rollout process printed no report");
+    try {
+      r = dds::report_from_json(nlohmann::json::parse(outcome.stdout_lines[outcome.stdout_lines.size() - 2]));
+    } catch (const std::exception& e) {
+      return failed(c, o, fmt::format("unreadable rollout output: {}", e.what()));
+    }
+  }
+  r.study_id(c.study_id());
+  r.trial_id(c.trial_id());
+  r.attempt(c.attempt());
+  r.worker_id(o.worker_id);
+  r.worker_kind(msg::WORKER_SIM);
+  r.error("");
+  r.wall_time_s(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return r;
+}
+
+}  // namespace cpgmatch::worker

@@ -1,0 +1,29 @@
+// What one worker slot does with one candidate: validate it, run the rollout (in a child process, or a
+// fixed delay for service benchmarks) and turn the outcome into a report. Never throws for a bad
+// candidate or a crashing rollout: those become reports with ok = false and the reason.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cpgmatch_msgs.h"
+
+namespace cpgmatch::worker {
+
+struct SlotOptions {
+  std::string worker_id;
+  double fake_rollout_s = -1.0;  // >= 0: no simulation, sleep this long and report a synthetic cost
+};
+
+// The rollout request a slot hands to its child process (`cpgmatch-sim-worker --run-one`).
+nlohmann::json rollout_request(const msg::Candidate& c);
+
+// Runs one rollout request in this process and returns the report fields as JSON (dds::to_json form).
+// Throws InputError for a malformed request.
+nlohmann::json run_rollout_request(const nlohmann::json& request);
+
+// Validates, runs and reports one candidate. Thread-safe: each call forks its own rollout process.
+msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions& options);
+
+}  // namespace cpgmatch::worker
