@@ -175,6 +175,7 @@ void print_report(const json& s, const study::StudyConfig& cfg, const fs::path& 
 void add_study_command(CLI::App& app) {
   CLI::App* study = app.add_subcommand("study", "run and manage optimisation studies");
   study->require_subcommand(1);
+  add_study_service_commands(study);
   struct Options {
     std::string config;
     int workers = 0;

@@ -17,6 +17,9 @@ void add_bench_optimizer_command(CLI::App& app);
 void add_optimize_command(CLI::App& app);
 void add_eval_rollout_command(CLI::App& app);
 void add_study_command(CLI::App& app);
+// study submit/pause/resume/stop (under `study`), and status, watch, workers: clients of the service.
+void add_study_service_commands(CLI::App* study);
+void add_service_commands(CLI::App& app);
 
 // The command line that runs one rollout as a child process (`cpgmatch eval-rollout ...`).
 std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed, double entrain_s, double eval_s);

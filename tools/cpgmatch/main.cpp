@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   cpgmatch::cli::add_optimize_command(app);
   cpgmatch::cli::add_eval_rollout_command(app);
   cpgmatch::cli::add_study_command(app);
+  cpgmatch::cli::add_service_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,144 @@
+#include "study_client.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <random>
+#include <stdexcept>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/dds/participant.hpp"
+
+namespace cpgmatch::client {
+
+struct StudyClient::Impl {
+  Impl(int domain, bool localhost_only, bool read_trials)
+      : participant(dds::ParticipantConfig{domain, "cpgmatch-cli", localhost_only}),
+        commands(participant),
+        client_id(fmt::format("cli-{}-{}", getpid(), std::random_device{}())) {
+    replies = std::make_unique<dds::Reader<msg::CommandReply>>(participant, [this](const msg::CommandReply& r) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (r.client_id().to_string() == client_id) received[r.correlation_id()] = r;
+      changed.notify_all();
+    });
+    state_reader = std::make_unique<dds::Reader<msg::StudyState>>(participant, [this](const msg::StudyState& s) {
+      std::lock_guard<std::mutex> lock(mutex);
+      study_states[static_cast<int>(s.study_id())] = dds::to_json(s);
+    });
+    worker_reader = std::make_unique<dds::Reader<msg::WorkerAnnouncement>>(
+        participant,
+        [this](const msg::WorkerAnnouncement& w) {
+          std::lock_guard<std::mutex> lock(mutex);
+          live_workers[w.worker_id().to_string()] = dds::to_json(w);
+        },
+        [this](const msg::WorkerAnnouncement& key, dds::InstanceGone) {
+          std::lock_guard<std::mutex> lock(mutex);
+          live_workers.erase(key.worker_id().to_string());
+        });
+    if (read_trials) {
+      trial_reader = std::make_unique<dds::Reader<msg::TrialRecord>>(participant, [this](const msg::TrialRecord& t) {
+        std::lock_guard<std::mutex> lock(mutex);
+        trial_records[static_cast<int>(t.study_id())][static_cast<int>(t.trial_id())] = dds::to_json(t);
+      });
+    }
+  }
+
+  CommandResult send(msg::StudyCommand command, double timeout_s) {
+    const auto timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
+    // A command written before the optimizer's reader and our reply reader are matched would be lost
+    // (volatile topic), so wait for both directions first.
+    if (!commands.matched().wait_for(1, timeout) || !replies->matched().wait_for(1, timeout)) {
+      throw std::runtime_error(fmt::format("no optimizer answered on DDS domain {} within {:.0f} s",
+                                           participant.domain(), timeout_s));
+    }
+    std::mt19937_64 rng(std::random_device{}());
+    command.correlation_id(rng());
+    command.client_id(client_id);
+    if (!commands.write(command)) throw std::runtime_error("DDS write of the command failed");
+    std::unique_lock<std::mutex> lock(mutex);
+    if (!changed.wait_for(lock, timeout, [&] { return received.count(command.correlation_id()) > 0; })) {
+      throw std::runtime_error(fmt::format("the optimizer did not reply within {:.0f} s", timeout_s));
+    }
+    const msg::CommandReply& r = received.at(command.correlation_id());
+    return {r.ok(), static_cast<int>(r.study_id()), r.message().to_string()};
+  }
+
+  dds::Participant participant;
+  dds::Writer<msg::StudyCommand> commands;
+  std::string client_id;
+  mutable std::mutex mutex;
+  std::condition_variable changed;
+  std::map<std::uint64_t, msg::CommandReply> received;
+  std::map<int, nlohmann::json> study_states;
+  std::map<std::string, nlohmann::json> live_workers;
+  std::map<int, std::map<int, nlohmann::json>> trial_records;
+  // Readers last: their callbacks use the members above.
+  std::unique_ptr<dds::Reader<msg::CommandReply>> replies;
+  std::unique_ptr<dds::Reader<msg::StudyState>> state_reader;
+  std::unique_ptr<dds::Reader<msg::WorkerAnnouncement>> worker_reader;
+  std::unique_ptr<dds::Reader<msg::TrialRecord>> trial_reader;
+};
+
+StudyClient::StudyClient(int domain, bool localhost_only, bool read_trials)
+    : impl_(std::make_unique<Impl>(domain, localhost_only, read_trials)) {}
+
+StudyClient::~StudyClient() {
+  // Readers go before the state they write into.
+  impl_->trial_reader.reset();
+  impl_->worker_reader.reset();
+  impl_->state_reader.reset();
+  impl_->replies.reset();
+}
+
+CommandResult StudyClient::submit(const std::string& study_yaml, const std::string& source_name, double timeout_s) {
+  msg::StudyCommand c;
+  c.kind(msg::COMMAND_SUBMIT);
+  c.study_yaml(study_yaml);
+  c.source_name(source_name.substr(0, 255));
+  return impl_->send(c, timeout_s);
+}
+
+CommandResult StudyClient::control(const std::string& kind, int study_id, double timeout_s) {
+  msg::StudyCommand c;
+  if (kind == "pause") c.kind(msg::COMMAND_PAUSE);
+  else if (kind == "resume") c.kind(msg::COMMAND_RESUME);
+  else if (kind == "stop") c.kind(msg::COMMAND_STOP);
+  else throw std::invalid_argument("unknown command " + kind);
+  c.study_id(static_cast<std::uint32_t>(study_id));
+  return impl_->send(c, timeout_s);
+}
+
+bool StudyClient::wait_for_optimizer(double timeout_s, double settle_s) {
+  if (!impl_->state_reader->matched().wait_for(1, std::chrono::milliseconds(static_cast<long>(timeout_s * 1000)))) {
+    return false;
+  }
+  std::this_thread::sleep_for(std::chrono::duration<double>(settle_s));
+  return true;
+}
+
+std::map<int, nlohmann::json> StudyClient::states() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->study_states;
+}
+
+std::map<std::string, nlohmann::json> StudyClient::workers() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->live_workers;
+}
+
+std::vector<nlohmann::json> StudyClient::trials(int study_id) const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  std::vector<nlohmann::json> out;
+  if (auto it = impl_->trial_records.find(study_id); it != impl_->trial_records.end()) {
+    for (const auto& [id, t] : it->second) out.push_back(t);
+  }
+  return out;
+}
+
+}  // namespace cpgmatch::client

@@ -1,0 +1,46 @@
+// A DDS client of the optimizer service for the command line: sends commands and reads study states,
+// workers and trial records. The interface is plain C++ and JSON (pimpl), so the CLI code does not
+// include Fast DDS headers.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace cpgmatch::client {
+
+struct CommandResult {
+  bool ok = false;
+  int study_id = 0;
+  std::string message;
+};
+
+class StudyClient {
+ public:
+  // `read_trials`: also subscribe to trial records (the whole transient-local history).
+  StudyClient(int domain, bool localhost_only, bool read_trials = false);
+  ~StudyClient();
+  StudyClient(const StudyClient&) = delete;
+  StudyClient& operator=(const StudyClient&) = delete;
+
+  // Both wait up to `timeout_s` for an optimizer and its reply; throw std::runtime_error when none answers.
+  CommandResult submit(const std::string& study_yaml, const std::string& source_name, double timeout_s);
+  // kind: pause | resume | stop
+  CommandResult control(const std::string& kind, int study_id, double timeout_s);
+
+  // True once an optimizer's state writer is matched; then waits `settle_s` for its history to arrive.
+  bool wait_for_optimizer(double timeout_s, double settle_s = 0.3);
+
+  std::map<int, nlohmann::json> states() const;             // latest state per study (to_json(StudyState))
+  std::map<std::string, nlohmann::json> workers() const;    // live workers by id
+  std::vector<nlohmann::json> trials(int study_id) const;   // trial records by trial id
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cpgmatch::client

@@ -1,0 +1,250 @@
+// Commands that talk to a running optimizer service over DDS:
+//   cpgmatch study submit --config STUDY.yaml [--wait] [--json]
+//   cpgmatch study pause|resume|stop ID
+//   cpgmatch status [--study ID] [--json]
+//   cpgmatch watch [--study ID]
+//   cpgmatch workers [--json]
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "commands.hpp"
+#include "cpgmatch/dds/domain.hpp"
+#include "service_flags.hpp"
+#include "study_client.hpp"
+
+namespace cpgmatch::cli {
+
+namespace {
+
+using nlohmann::json;
+volatile std::sig_atomic_t g_interrupted = 0;
+
+std::string num(const json& v, const char* format = "{:.4g}") {
+  return v.is_null() ? std::string("-") : fmt::format(fmt::runtime(format), v.get<double>());
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(fmt::format("--config: cannot read '{}'", path));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+client::StudyClient connect(const ServiceFlags& f, bool trials = false) {
+  return client::StudyClient(f.resolved_domain(), f.localhost_only, trials);
+}
+
+// Waits until the study reaches a terminal state, printing progress on stderr. Returns its last state.
+json wait_until_finished(client::StudyClient& c, int study_id, bool quiet) {
+  std::signal(SIGINT, [](int) { g_interrupted = 1; });
+  const bool tty = isatty(STDERR_FILENO);
+  json last;
+  std::string last_line;
+  while (!g_interrupted) {
+    const auto states = c.states();
+    if (auto it = states.find(study_id); it != states.end()) {
+      last = it->second;
+      const std::string line = progress_line(last);
+      if (!quiet && line != last_line) {
+        fmt::print(stderr, "{}{}{}", tty ? "\r\033[K" : "", line, tty ? "" : "\n");
+        last_line = line;
+      }
+      if (is_terminal(last["state"].get<std::string>())) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (!quiet && tty) fmt::print(stderr, "\n");
+  return last;
+}
+
+void print_states(const std::map<int, json>& states) {
+  fmt::print("{:>5}  {:<20} {:<8} {:>13} {:>10} {:>6} {:>8} {:>8}\n", "study", "name", "state", "completed", "best cost",
+             "falls", "workers", "rate/s");
+  for (const auto& [id, s] : states) {
+    fmt::print("{:>5}  {:<20} {:<8} {:>13} {:>10} {:>6} {:>8} {:>8}\n", id, s["name"].get<std::string>(),
+               s["state"].get<std::string>(), fmt::format("{}/{}", s["completed"].get<int>(), s["budget"].get<int>()),
+               num(s["best_cost"]), s["falls"].get<int>(), s["workers"].get<int>(), num(s["rollouts_per_s"], "{:.1f}"));
+  }
+}
+
+}  // namespace
+
+int ServiceFlags::resolved_domain() const {
+  if (domain >= 0) {
+    dds::validate_domain(domain);
+    return domain;
+  }
+  return dds::default_domain();
+}
+
+void add_service_flags(CLI::App* cmd, ServiceFlags& f) {
+  cmd->add_option("--domain", f.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
+  cmd->add_flag("--localhost-only", f.localhost_only, "shared memory and 127.0.0.1 only");
+  cmd->add_option("--timeout", f.timeout_s, "seconds to wait for the optimizer")->capture_default_str();
+}
+
+bool is_terminal(const std::string& state) { return state == "done" || state == "failed" || state == "stopped"; }
+
+std::string progress_line(const json& s) {
+  const int done = s["completed"].get<int>(), budget = s["budget"].get<int>();
+  const double rate = s["rollouts_per_s"].is_null() ? 0.0 : s["rollouts_per_s"].get<double>();
+  const int width = 30, filled = budget > 0 ? width * std::min(done, budget) / budget : width;
+  const std::string eta = rate > 0 ? fmt::format("{:.0f}s", (budget - done) / rate) : std::string("-");
+  return fmt::format("study {} [{}{}] {:>4}/{} best {:<9} {:6.2f} rollouts/s  eta {:>5}  workers {}  {}",
+                     s["study_id"].get<int>(), std::string(filled, '#'), std::string(width - filled, '.'), done, budget,
+                     num(s["best_cost"]), rate, eta, s["workers"].get<int>(), s["state"].get<std::string>());
+}
+
+void add_study_service_commands(CLI::App* study) {
+  {
+    struct Options {
+      ServiceFlags service;
+      std::string config;
+      bool wait = false, json = false, quiet = false;
+    };
+    auto o = std::make_shared<Options>();
+    CLI::App* cmd = study->add_subcommand("submit", "submit a study file to the optimizer service; prints its id");
+    cmd->add_option("--config", o->config, "study YAML")->required();
+    cmd->add_flag("--wait", o->wait, "wait until the study has finished, showing progress");
+    cmd->add_flag("--json", o->json, "print the result as JSON");
+    cmd->add_flag("--quiet", o->quiet, "no progress output");
+    add_service_flags(cmd, o->service);
+    cmd->callback([o] {
+      const std::string text = read_file(o->config);
+      client::StudyClient c = connect(o->service);
+      const client::CommandResult r = c.submit(text, o->config, o->service.timeout_s);
+      if (!r.ok) throw InputError(r.message);  // e.g. "study.yaml:4: budget: must be >= 1"
+      if (!o->wait) {
+        if (o->json) std::cout << json{{"study_id", r.study_id}, {"message", r.message}}.dump() << std::endl;
+        else std::cout << r.study_id << std::endl;
+        return;
+      }
+      const json last = wait_until_finished(c, r.study_id, o->quiet);
+      if (o->json) std::cout << last.dump() << std::endl;
+      else fmt::print("study {}: {} ({})\n", r.study_id, last.value("state", "unknown"), last.value("message", ""));
+      if (last.is_null() || last["state"] != "done") throw std::runtime_error("study did not finish");
+    });
+  }
+  for (const char* kind : {"pause", "resume", "stop"}) {
+    struct Options {
+      ServiceFlags service;
+      int study_id = 0;
+    };
+    auto o = std::make_shared<Options>();
+    CLI::App* cmd = study->add_subcommand(kind, fmt::format("{} a study on the optimizer service", kind));
+    cmd->add_option("id", o->study_id, "study id")->required();
+    add_service_flags(cmd, o->service);
+    const std::string k = kind;
+    cmd->callback([o, k] {
+      client::StudyClient c = connect(o->service);
+      const client::CommandResult r = c.control(k, o->study_id, o->service.timeout_s);
+      if (!r.ok) throw InputError(r.message);
+      fmt::print("{}\n", r.message);
+    });
+  }
+}
+
+void add_service_commands(CLI::App& app) {
+  {
+    struct Options {
+      ServiceFlags service;
+      int study_id = -1;
+      bool json = false;
+    };
+    auto o = std::make_shared<Options>();
+    CLI::App* cmd = app.add_subcommand("status", "studies on the optimizer service");
+    cmd->add_option("--study", o->study_id, "only this study");
+    cmd->add_flag("--json", o->json, "JSON: one object with --study, else an array");
+    add_service_flags(cmd, o->service);
+    cmd->callback([o] {
+      client::StudyClient c = connect(o->service);
+      if (!c.wait_for_optimizer(o->service.timeout_s)) {
+        throw std::runtime_error(fmt::format("no optimizer on DDS domain {}", o->service.resolved_domain()));
+      }
+      auto states = c.states();
+      if (o->study_id >= 0) {
+        const auto it = states.find(o->study_id);
+        if (it == states.end()) throw InputError(fmt::format("--study: no study {}", o->study_id));
+        if (o->json) std::cout << it->second.dump() << std::endl;
+        else print_states({*it});
+        return;
+      }
+      if (o->json) {
+        json all = json::array();
+        for (const auto& [id, s] : states) all.push_back(s);
+        std::cout << all.dump() << std::endl;
+      } else {
+        print_states(states);
+      }
+    });
+  }
+  {
+    struct Options {
+      ServiceFlags service;
+      int study_id = -1;
+    };
+    auto o = std::make_shared<Options>();
+    CLI::App* cmd = app.add_subcommand("watch", "stream study progress until the studies finish (Ctrl-C to leave)");
+    cmd->add_option("--study", o->study_id, "only this study");
+    add_service_flags(cmd, o->service);
+    cmd->callback([o] {
+      client::StudyClient c = connect(o->service);
+      if (!c.wait_for_optimizer(o->service.timeout_s)) {
+        throw std::runtime_error(fmt::format("no optimizer on DDS domain {}", o->service.resolved_domain()));
+      }
+      std::signal(SIGINT, [](int) { g_interrupted = 1; });
+      std::map<int, std::string> last;
+      while (!g_interrupted) {
+        bool open = false;
+        for (const auto& [id, s] : c.states()) {
+          if (o->study_id >= 0 && id != o->study_id) continue;
+          const std::string line = progress_line(s);
+          if (last[id] != line) fmt::print("{}\n", line);
+          last[id] = line;
+          open = open || !is_terminal(s["state"].get<std::string>());
+        }
+        std::fflush(stdout);
+        if (!open) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(250));
+      }
+    });
+  }
+  {
+    struct Options {
+      ServiceFlags service;
+      bool json = false;
+    };
+    auto o = std::make_shared<Options>();
+    CLI::App* cmd = app.add_subcommand("workers", "live workers on the domain");
+    cmd->add_flag("--json", o->json, "JSON array");
+    add_service_flags(cmd, o->service);
+    cmd->callback([o] {
+      client::StudyClient c = connect(o->service);
+      c.wait_for_optimizer(o->service.timeout_s, 1.0);  // workers announce every 0.5 s
+      const auto workers = c.workers();
+      if (o->json) {
+        json all = json::array();
+        for (const auto& [id, w] : workers) all.push_back(w);
+        std::cout << all.dump() << std::endl;
+        return;
+      }
+      fmt::print("{:<24} {:<8} {:<16} {:>7} {:>6} {:>5} {:>10}\n", "worker", "kind", "host", "pid", "slots", "busy", "completed");
+      for (const auto& [id, w] : workers) {
+        fmt::print("{:<24} {:<8} {:<16} {:>7} {:>6} {:>5} {:>10}\n", id, w["kind"].get<std::string>(),
+                   w["host"].get<std::string>(), w["pid"].get<int>(), w["slots"].get<int>(), w["busy"].get<int>(),
+                   w["completed"].get<int>());
+      }
+    });
+  }
+}
+
+}  // namespace cpgmatch::cli

@@ -1,0 +1,26 @@
+// Flags shared by the commands that talk to the optimizer service over DDS.
+#pragma once
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+namespace cpgmatch::cli {
+
+struct ServiceFlags {
+  int domain = -1;              // -1: $CPGMATCH_DOMAIN, else 0
+  bool localhost_only = false;
+  double timeout_s = 10.0;
+  int resolved_domain() const;  // validates; InputError naming --domain or CPGMATCH_DOMAIN
+};
+
+void add_service_flags(CLI::App* cmd, ServiceFlags& flags);
+
+// Terminal study states: done, failed, stopped.
+bool is_terminal(const std::string& state);
+
+// One line of progress: completed/budget, best cost, rollouts per second, ETA.
+std::string progress_line(const nlohmann::json& state);
+
+}  // namespace cpgmatch::cli
