@@ -1,7 +1,11 @@
-// `cpgmatch study run`: a full local study (the paper's, by default). The optimizer runs here; rollouts
-// run as parallel child processes (`cpgmatch eval-rollout`), one per worker slot, so ODE worlds never
-// share a process. At the end it writes trials, a summary and plots, and compares with the paper.
+// `cpgmatch study run`: a full local study (the paper's, by default). Starts the optimizer service and
+// simulation workers as child processes on a private DDS domain (shared memory and loopback only),
+// submits the study, shows progress until it is done and stops them. At the end it writes trials, a
+// summary and plots from the trial records it read over DDS, and compares with the paper.
 #include <unistd.h>
+
+#include <csignal>
+#include <iterator>
 
 #include <algorithm>
 #include <chrono>
@@ -16,7 +20,11 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "optimization_loop.hpp"
+#include "child_process.hpp"
+#include "cpgmatch/command_objective.hpp"
+#include "cpgmatch/dds/domain.hpp"
+#include "service_flags.hpp"
+#include "study_client.hpp"
 #include "cpgmatch/study/study_config.hpp"
 
 namespace cpgmatch::cli {
@@ -170,6 +178,28 @@ void print_report(const json& s, const study::StudyConfig& cfg, const fs::path& 
   fmt::print("  results: {}  (study.png, trials.jsonl, summary.json, best_params.yaml)\n", dir.string());
 }
 
+// The trial record (to_json(TrialRecord)) in the shape summarise() and the plots read.
+json legacy_trial(const json& record) {
+  const json& report = record["report"];
+  json t{{"index", record["trial_id"]}, {"ok", report["ok"]}, {"params", record["params"]}};
+  if (report["ok"].get<bool>()) {
+    json result = report;
+    result["params"] = record["params"];
+    t["result"] = result;
+    t["cost"] = report["cost"];
+  } else {
+    t["result"] = nullptr;
+    t["cost"] = nullptr;
+    t["error"] = report["error"];
+  }
+  return t;
+}
+
+// A domain id of this run's own, so that two local studies on one machine do not meet.
+int private_domain() { return 150 + static_cast<int>(getpid() % 80); }
+
+volatile std::sig_atomic_t g_interrupted = 0;
+
 }  // namespace
 
 void add_study_command(CLI::App& app) {
@@ -180,63 +210,125 @@ void add_study_command(CLI::App& app) {
     std::string config;
     int workers = 0;
     std::string out;
+    std::string store;
+    int domain = -1;
     bool quiet = false;
     bool json = false;
   };
   auto opts = std::make_shared<Options>();
-  CLI::App* run = study->add_subcommand("run", "run a study locally to completion (default: the paper's study)");
+  CLI::App* run = study->add_subcommand(
+      "run", "run a study locally to completion: optimizer service and workers as child processes on a private DDS domain");
   run->add_option("--config", opts->config, "study YAML (default: the paper's study)");
-  run->add_option("--workers", opts->workers, "parallel rollouts (default: number of cores)");
+  run->add_option("--workers", opts->workers, "simulation workers, one rollout each at a time (default: number of cores)");
   run->add_option("--out", opts->out, "results directory (default: results/<name>-<time>)");
+  run->add_option("--store", opts->store, "SQLite study store (default: <out>/study.db)");
+  run->add_option("--domain", opts->domain, "DDS domain id (default: a private one, 150..229)");
   run->add_flag("--quiet", opts->quiet, "no progress bar");
   run->add_flag("--json", opts->json, "print the summary as one JSON object");
   run->callback([opts] {
     study::StudyConfig cfg;
-    if (!opts->config.empty()) cfg = study::load_study_config(opts->config);
-    const int workers = opts->workers > 0 ? opts->workers : std::max(1u, std::thread::hardware_concurrency());
+    std::string text = "# the paper's study: every key but the name has the paper's value\nname: paper-study\n";
+    std::string source = "embedded paper study";
+    if (!opts->config.empty()) {
+      cfg = study::load_study_config(opts->config);
+      std::ifstream in(opts->config);
+      text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+      source = opts->config;
+    }
     if (opts->workers < 0) throw InputError("--workers must be >= 1");
+    const int workers = opts->workers > 0 ? opts->workers : std::max(1u, std::thread::hardware_concurrency());
+    const int domain = opts->domain >= 0 ? opts->domain : private_domain();
+    dds::validate_domain(domain);
     const auto stamp = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
     char buf[32];
     std::strftime(buf, sizeof(buf), "%Y%m%d-%H%M%S", std::localtime(&stamp));
     const fs::path dir = opts->out.empty() ? fs::path("results") / fmt::format("{}-{}", cfg.name, buf) : fs::path(opts->out);
     fs::create_directories(dir);
+    const std::string store = opts->store.empty() ? (dir / "study.db").string() : opts->store;
 
     if (!opts->quiet) {
-      fmt::print(stderr, "study '{}': {} rollouts ({} random, then {}), {} parameters, {:.0f} s + {:.0f} s each, {} workers\n",
+      fmt::print(stderr, "study '{}': {} rollouts ({} random, then {}), {} parameters, {:.0f} s + {:.0f} s each\n",
                  cfg.name, cfg.budget, cfg.optimizer.initial_points, bo::to_string(cfg.optimizer.acquisition),
-                 cfg.space.size(), cfg.entrain_s, cfg.eval_s, workers);
+                 cfg.space.size(), cfg.entrain_s, cfg.eval_s);
+      fmt::print(stderr, "optimizer service + {} simulation workers on private DDS domain {}; logs in {}\n", workers,
+                 domain, dir.string());
     }
-    bo::BayesianOptimizer optimizer(cfg.space, cfg.optimizer);
-    const std::string command = rollout_objective_command(cfg.terrain, cfg.optimizer.seed, cfg.entrain_s, cfg.eval_s);
-    std::ofstream trials_file(dir / "trials.jsonl");
-    std::vector<json> trials;
-    ProgressBar bar(cfg.budget, opts->quiet);
+    const fs::path bin = fs::path(self_executable()).parent_path();
+    const std::string d = std::to_string(domain);
+    std::vector<std::unique_ptr<ChildProcess>> children;
+    children.push_back(std::make_unique<ChildProcess>(
+        std::vector<std::string>{(bin / "cpgmatch-optimizer").string(), "--domain", d, "--store", store,
+                                 "--localhost-only", "--log-level", "warn"},
+        (dir / "optimizer.log").string()));
+    for (int i = 0; i < workers; ++i) {
+      children.push_back(std::make_unique<ChildProcess>(
+          std::vector<std::string>{(bin / "cpgmatch-sim-worker").string(), "--domain", d, "--slots", "1", "--id",
+                                   fmt::format("local-{}-{}", getpid(), i), "--localhost-only", "--log-level", "warn"},
+          (dir / fmt::format("worker-{}.log", i)).string()));
+    }
+    auto stop_all = [&] {
+      for (auto it = children.rbegin(); it != children.rend(); ++it) (*it)->stop();
+    };
+    std::signal(SIGINT, [](int) { g_interrupted = 1; });
+    std::signal(SIGTERM, [](int) { g_interrupted = 1; });
+
+    client::StudyClient client(domain, true, /*read_trials=*/true);
     const auto start = std::chrono::steady_clock::now();
-    double best = std::numeric_limits<double>::infinity();
-    const Evaluator evaluate = command_evaluator(cfg.space, command, 600.0);
-    run_optimization(optimizer, cfg.budget, workers, evaluate, [&](const Trial& t) {
-      json record{{"index", t.index}, {"ok", t.outcome.ok}};
-      record["params"] = named_point_json(cfg.space, t.x);
-      record["result"] = nullptr;
-      if (t.outcome.ok && t.outcome.stdout_lines.size() >= 2) {
-        record["result"] = json::parse(t.outcome.stdout_lines[t.outcome.stdout_lines.size() - 2], nullptr, false);
-        if (record["result"].is_discarded()) record["result"] = nullptr;
+    const client::CommandResult submitted = client.submit(text, source, 30.0);
+    if (!submitted.ok) {
+      stop_all();
+      throw InputError(submitted.message);
+    }
+    ProgressBar bar(cfg.budget, opts->quiet);
+    json state;
+    int shown = -1;
+    while (true) {
+      if (g_interrupted) {
+        stop_all();
+        throw std::runtime_error(fmt::format("interrupted; the study is kept in {} (resume with --store)", store));
       }
-      record["cost"] = t.outcome.ok ? json(t.outcome.cost) : json(nullptr);
-      if (!t.outcome.ok) {
-        record["error"] = t.outcome.message;
-        fmt::print(stderr, "\nrollout {} failed: {}\n", t.index, t.outcome.message);
+      if (!children.front()->running()) {
+        throw std::runtime_error(fmt::format("the optimizer service exited; see {}", (dir / "optimizer.log").string()));
       }
-      if (t.outcome.ok) best = std::min(best, t.outcome.cost);
-      trials_file << record.dump() << '\n' << std::flush;
-      trials.push_back(record);
-      bar.update(t.index + 1, best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-    });
+      const auto states = client.states();
+      if (auto it = states.find(submitted.study_id); it != states.end()) {
+        state = it->second;
+        const int done = state["completed"].get<int>();
+        if (done != shown) {
+          bar.update(done, state["best_cost"].is_null() ? std::nan("") : state["best_cost"].get<double>(),
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+          shown = done;
+        }
+        if (is_terminal(state["state"].get<std::string>())) break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    // Trial records travel on their own topic; give the last ones a moment to arrive.
+    std::vector<json> records;
+    for (int i = 0; i < 100; ++i) {
+      records = client.trials(submitted.study_id);
+      if (static_cast<int>(records.size()) >= state["completed"].get<int>()) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    stop_all();
+    if (state["state"] != "done") {
+      throw std::runtime_error(fmt::format("study {} ended {}: {}", submitted.study_id, state["state"].get<std::string>(),
+                                           state["message"].get<std::string>()));
+    }
+    std::vector<json> trials;
+    std::ofstream trials_file(dir / "trials.jsonl");
+    for (const auto& r : records) {
+      trials.push_back(legacy_trial(r));
+      trials_file << trials.back().dump() << '\n';
+    }
     json summary = summarise(trials, cfg.optimizer.initial_points);
     summary["name"] = cfg.name;
+    summary["study_id"] = submitted.study_id;
     summary["wall_time_s"] = wall;
     summary["workers"] = workers;
+    summary["store"] = store;
+    summary["reissued"] = state["reissued"];
     std::ofstream(dir / "summary.json") << summary.dump(2) << '\n';
     if (summary.contains("best_params")) {
       std::ofstream yaml(dir / "best_params.yaml");
