@@ -180,6 +180,9 @@ void Coordinator::handle_command(const msg::StudyCommand& command, double now_s)
     reply.message(fmt::format("internal error: {}", e.what()));
     warn_(reply.message().to_string());
   }
+  if (!reply.ok() && command.kind() != msg::COMMAND_SUBMIT) {
+    warn_(fmt::format("command from {} refused: {}", command.client_id().to_string(), reply.message().to_string()));
+  }
   out_.reply(reply);
 }
 
