@@ -16,7 +16,7 @@ out=$(state_json "$id")
 [[ $(json_field "$out" failed) == 0 ]] || fail "a malformed sample reached the study: $out"
 [[ $(sql "$WORK/s.db" "select count(*) from trials where status='done'") == 30 ]] || fail "store: not 30 done trials"
 [[ $(sql "$WORK/s.db" "select count(*) from studies") == 1 ]] || fail "a bad submit created a study"
-for reason in "cost is not finite" "unknown study" "never issued" "worker_key is not the hash" "no_such_parameter" "no study 4242"; do
+for reason in "cost is not finite" "unknown study" "no such candidate was ever issued" "worker_key is not the hash" "no_such_parameter" "no study 4242"; do
   grep -q "$reason" "$WORK/optimizer.log" || fail "optimizer log does not mention: $reason"
 done
 grep -q "bad parameters" "$WORK/worker-w.log" || fail "worker log does not mention the NaN parameters"
