@@ -35,7 +35,7 @@ start_worker() {  # start_worker ID [extra args]; sets WORKER_PID
   PIDS+=("$WORKER_PID")
 }
 
-cli() { "$BIN/cpgmatch" "$@" --domain "$DOMAIN" --localhost-only; }
+cli() { "$BIN/cpgmatch" "$@" --domain "$DOMAIN" --localhost-only 2>>"$WORK/cli.log"; }
 
 state_json() {  # state_json STUDY_ID
   cli status --study "$1" --json --timeout 5 2>/dev/null || echo '{}'

@@ -4,11 +4,13 @@
 source "$(dirname "$0")/lib.sh"
 write_study "$WORK/s.yaml" worker-sigkill 24
 start_optimizer "$WORK/s.db"
-start_worker doomed --slots 2 --fake-rollout-ms 300; DOOMED=$WORKER_PID
-start_worker survivor --slots 2 --fake-rollout-ms 300
+start_worker doomed --slots 2 --fake-rollout-ms 1000; DOOMED=$WORKER_PID
+start_worker survivor --slots 2 --fake-rollout-ms 1000
 id=$(cli study submit --config "$WORK/s.yaml" --timeout 20) || fail "submit failed"
 wait_until 30 completed_at_least "$id" 4 || fail "study did not start"
 kill -9 "$DOOMED"
+before=$(sql "$WORK/s.db" "select count(*) from trials where status='done'")
+((before < 24)) || fail "the study ended before the worker was killed; the test proves nothing"
 wait_until 60 study_is "$id" done || fail "study did not finish after the worker was killed"
 out=$(state_json "$id")
 [[ $(json_field "$out" completed) == 24 ]] || fail "completed: $out"

@@ -122,6 +122,18 @@ bool StudyClient::wait_for_optimizer(double timeout_s, double settle_s) {
   return true;
 }
 
+bool StudyClient::wait_for_study(int study_id, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(impl_->mutex);
+      if (impl_->study_states.count(study_id)) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
 std::map<int, nlohmann::json> StudyClient::states() const {
   std::lock_guard<std::mutex> lock(impl_->mutex);
   return impl_->study_states;

@@ -32,7 +32,9 @@ class StudyClient {
   CommandResult control(const std::string& kind, int study_id, double timeout_s);
 
   // True once an optimizer's state writer is matched; then waits `settle_s` for its history to arrive.
-  bool wait_for_optimizer(double timeout_s, double settle_s = 0.3);
+  bool wait_for_optimizer(double timeout_s, double settle_s = 1.0);
+  // True once the state of `study_id` has arrived (transient-local history can lag the match).
+  bool wait_for_study(int study_id, double timeout_s);
 
   std::map<int, nlohmann::json> states() const;             // latest state per study (to_json(StudyState))
   std::map<std::string, nlohmann::json> workers() const;    // live workers by id

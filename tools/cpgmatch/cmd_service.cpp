@@ -167,7 +167,12 @@ void add_service_commands(CLI::App& app) {
     add_service_flags(cmd, o->service);
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
-      if (!c.wait_for_optimizer(o->service.timeout_s)) {
+      if (o->study_id >= 0) {
+        if (!c.wait_for_study(o->study_id, o->service.timeout_s)) {
+          throw InputError(fmt::format("--study: no study {} on DDS domain {} (waited {:.0f} s)", o->study_id,
+                                       o->service.resolved_domain(), o->service.timeout_s));
+        }
+      } else if (!c.wait_for_optimizer(o->service.timeout_s)) {
         throw std::runtime_error(fmt::format("no optimizer on DDS domain {}", o->service.resolved_domain()));
       }
       auto states = c.states();

@@ -16,7 +16,10 @@ const TopicInfo& topic_info(TopicId id) {
   static const TopicInfo kStudyState{"cpgmatch/study_state", true, 1, 10000};
   static const TopicInfo kTrials{"cpgmatch/trials", true, 1, 1000000};
   static const TopicInfo kCommands{"cpgmatch/commands", false, 256, 1};
-  static const TopicInfo kReplies{"cpgmatch/replies", false, 256, 1};
+  // Replies are transient-local: the client's reader can match the optimizer's writer a moment after
+  // the client's command got through, and a volatile reply would then be lost. Commands stay volatile
+  // so that a restarted optimizer never executes an old command again.
+  static const TopicInfo kReplies{"cpgmatch/replies", true, 256, 1};
   switch (id) {
     case TopicId::kCandidates: return kCandidates;
     case TopicId::kReports: return kReports;
