@@ -1,0 +1,243 @@
+// The optimizer service's logic without DDS: a Coordinator driven by hand-made samples, with a store in
+// a temporary file and an Outbox that records what would be published.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <vector>
+
+#include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/service/coordinator.hpp"
+
+namespace cpgmatch::service {
+namespace {
+
+struct RecordingOutbox : Outbox {
+  std::vector<msg::Candidate> candidates, retired;
+  std::vector<msg::TrialRecord> trials;
+  std::vector<msg::StudyState> states;
+  std::vector<msg::CommandReply> replies;
+  void send_candidate(const msg::Candidate& c) override { candidates.push_back(c); }
+  void retire_candidate(const msg::Candidate& c) override { retired.push_back(c); }
+  void publish_trial(const msg::TrialRecord& t) override { trials.push_back(t); }
+  void publish_state(const msg::StudyState& s) override { states.push_back(s); }
+  void reply(const msg::CommandReply& r) override { replies.push_back(r); }
+};
+
+class CoordinatorTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    path_ = (std::filesystem::temp_directory_path() / ("coordinator-" + std::to_string(getpid()) + "-" +
+                                                       ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".db")).string();
+    std::filesystem::remove(path_);
+    open();
+  }
+  void TearDown() override {
+    coordinator_.reset();
+    store_.reset();
+    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path_ + suffix);
+  }
+  // (Re)opens store and coordinator on the same file, as a restarted service would.
+  void open() {
+    coordinator_.reset();
+    store_ = std::make_unique<study::StudyStore>(path_);
+    out_ = RecordingOutbox{};
+    coordinator_ = std::make_unique<Coordinator>(*store_, out_, CoordinatorOptions{}, [](const std::string&) {},
+                                                 [this](const std::string& m) { warnings_.push_back(m); });
+  }
+  int submit(int budget, int initial) {
+    msg::StudyCommand c;
+    c.correlation_id(42);
+    c.client_id("test");
+    c.kind(msg::COMMAND_SUBMIT);
+    c.study_yaml("name: t\nbudget: " + std::to_string(budget) + "\ninitial_points: " + std::to_string(initial) +
+                 "\nrollout: {entrain_s: 1, eval_s: 1}\n");
+    coordinator_->handle_command(c, now_);
+    EXPECT_TRUE(out_.replies.back().ok()) << out_.replies.back().message().to_string();
+    return static_cast<int>(out_.replies.back().study_id());
+  }
+  void worker(const std::string& id, int slots) {
+    msg::WorkerAnnouncement w;
+    w.worker_id(id);
+    w.worker_key(dds::worker_key(id));
+    w.slots(static_cast<std::uint32_t>(slots));
+    w.accepting(true);
+    coordinator_->handle_worker(w, now_);
+  }
+  msg::RolloutReport report_for(const msg::Candidate& c, double cost) {
+    msg::RolloutReport r;
+    r.study_id(c.study_id());
+    r.trial_id(c.trial_id());
+    r.attempt(c.attempt());
+    r.worker_id(c.worker_id());
+    r.ok(true);
+    r.cost(cost);
+    return r;
+  }
+  // Answers every candidate sent so far that has not been answered yet.
+  void answer_all(double cost = 1.0) {
+    while (answered_ < out_.candidates.size()) {
+      coordinator_->handle_report(report_for(out_.candidates[answered_], cost + answered_ * 0.01), now_);
+      ++answered_;
+    }
+  }
+  std::string path_;
+  std::unique_ptr<study::StudyStore> store_;
+  RecordingOutbox out_;
+  std::unique_ptr<Coordinator> coordinator_;
+  std::vector<std::string> warnings_;
+  std::size_t answered_ = 0;
+  double now_ = 1000.0;
+};
+
+TEST_F(CoordinatorTest, FillsEveryFreeSlotAndFinishesWithExactlyTheBudget) {
+  const int id = submit(10, 4);
+  worker("a", 3);
+  worker("b", 2);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 5u);  // every slot busy
+  int to_a = 0;
+  for (const auto& c : out_.candidates) to_a += c.worker_id().to_string() == "a";
+  EXPECT_EQ(to_a, 3);
+  for (int round = 0; round < 10 && !coordinator_->idle(); ++round) {
+    answer_all();
+    coordinator_->tick(now_ += 0.2);
+  }
+  EXPECT_EQ(out_.candidates.size(), 10u);
+  EXPECT_EQ(out_.trials.size(), 10u);
+  const auto done = store_->load(id);
+  ASSERT_TRUE(done);
+  EXPECT_EQ(done->state, "done");
+  EXPECT_EQ(out_.states.back().completed(), 10u);
+  EXPECT_EQ(out_.states.back().state(), msg::STUDY_DONE);
+  // Every candidate carries the complete CPG parameter set.
+  EXPECT_EQ(out_.candidates[0].parameters().size(), 8u);
+}
+
+TEST_F(CoordinatorTest, DuplicateAndForgedReportsAreNotCounted) {
+  submit(5, 5);
+  worker("a", 2);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 2u);
+  const msg::RolloutReport first = report_for(out_.candidates[0], 3.0);
+  coordinator_->handle_report(first, now_);
+  coordinator_->handle_report(first, now_);  // duplicate
+  msg::RolloutReport future = report_for(out_.candidates[1], 2.0);
+  future.attempt(7);  // an attempt that was never issued
+  coordinator_->handle_report(future, now_);
+  msg::RolloutReport never = report_for(out_.candidates[1], 2.0);
+  never.trial_id(99);
+  coordinator_->handle_report(never, now_);
+  EXPECT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(coordinator_->rejected_samples(), 2u);
+  coordinator_->tick(now_ += 1);
+  EXPECT_EQ(out_.states.back().completed(), 1u);
+}
+
+TEST_F(CoordinatorTest, ALostWorkersCandidatesGoToAnotherWorker) {
+  submit(6, 6);
+  worker("a", 2);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 2u);
+  worker("b", 2);
+  coordinator_->handle_worker_gone(dds::worker_key("a"), now_);
+  coordinator_->tick(now_ += 0.1);
+  // The two re-issued candidates (attempt 1) go first, then new ones fill b's remaining slots... b has 2.
+  ASSERT_EQ(out_.candidates.size(), 4u);
+  EXPECT_EQ(out_.candidates[2].worker_id().to_string(), "b");
+  EXPECT_EQ(out_.candidates[2].attempt(), 1u);
+  EXPECT_EQ(out_.candidates[2].trial_id(), out_.candidates[0].trial_id());
+  // The lost worker's late report still counts once; the re-issued copy's report is then a duplicate.
+  coordinator_->handle_report(report_for(out_.candidates[0], 1.0), now_);
+  coordinator_->handle_report(report_for(out_.candidates[2], 1.0), now_);
+  EXPECT_EQ(out_.trials.size(), 1u);
+}
+
+TEST_F(CoordinatorTest, SilentWorkerAndExpiredLeaseAreReissued) {
+  submit(4, 4);
+  worker("a", 1);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 1u);
+  coordinator_->tick(now_ += 10.0);  // no heartbeat for 10 s: a is dropped
+  EXPECT_EQ(coordinator_->live_workers(), 0);
+  worker("b", 1);
+  coordinator_->tick(now_ += 0.1);
+  ASSERT_EQ(out_.candidates.size(), 2u);
+  EXPECT_EQ(out_.candidates[1].attempt(), 1u);
+  // b keeps announcing but never reports: the lease (60 s + 3 x 2 s) runs out.
+  for (int i = 0; i < 70; ++i) {
+    worker("b", 1);
+    coordinator_->tick(now_ += 1.0);
+  }
+  ASSERT_GE(out_.candidates.size(), 3u);
+  EXPECT_EQ(out_.candidates[2].attempt(), 2u);
+  EXPECT_GE(out_.states.back().reissued(), 2u);
+}
+
+TEST_F(CoordinatorTest, RestartResumesWithoutLosingOrDoubleCounting) {
+  const int id = submit(8, 3);
+  worker("a", 2);
+  coordinator_->tick(now_);
+  answer_all();
+  coordinator_->tick(now_ += 0.1);  // two more issued, still in flight
+  ASSERT_EQ(out_.candidates.size(), 4u);
+  const msg::Candidate in_flight = out_.candidates[2];
+
+  open();  // "crash" and restart on the same store
+  coordinator_->resume_from_store(now_);
+  EXPECT_EQ(out_.trials.size(), 2u);  // the two counted trials are published again
+  worker("a", 2);
+  // The report of an in-flight candidate, written before the crash, arrives now and counts once.
+  coordinator_->handle_report(report_for(in_flight, 0.5), now_);
+  coordinator_->handle_report(report_for(in_flight, 0.5), now_);
+  EXPECT_EQ(out_.trials.size(), 3u);
+  answered_ = 0;
+  for (int round = 0; round < 20 && !coordinator_->idle(); ++round) {
+    coordinator_->tick(now_ += 0.1);
+    answer_all();
+  }
+  coordinator_->tick(now_ += 1);
+  const auto s = store_->load(id);
+  ASSERT_TRUE(s);
+  EXPECT_EQ(s->state, "done");
+  EXPECT_EQ(s->trials.size(), 8u);
+  for (const auto& t : s->trials) EXPECT_EQ(t.status, study::TrialStatus::kDone);
+  EXPECT_EQ(out_.states.back().completed(), 8u);
+}
+
+TEST_F(CoordinatorTest, BadCommandsAreRefusedWithTheReason) {
+  msg::StudyCommand c;
+  c.kind(msg::COMMAND_SUBMIT);
+  c.study_yaml("name: t\nbudget: 0\n");
+  c.source_name("bad.yaml");
+  coordinator_->handle_command(c, now_);
+  ASSERT_EQ(out_.replies.size(), 1u);
+  EXPECT_FALSE(out_.replies[0].ok());
+  EXPECT_NE(out_.replies[0].message().to_string().find("bad.yaml:2"), std::string::npos) << out_.replies[0].message().to_string();
+  c.kind(msg::COMMAND_PAUSE);
+  c.study_id(5);
+  coordinator_->handle_command(c, now_);
+  EXPECT_FALSE(out_.replies[1].ok());
+  EXPECT_EQ(coordinator_->studies(), 0);
+}
+
+TEST_F(CoordinatorTest, PausedStudyGetsNoNewCandidates) {
+  const int id = submit(10, 10);
+  msg::StudyCommand pause;
+  pause.kind(msg::COMMAND_PAUSE);
+  pause.study_id(static_cast<std::uint32_t>(id));
+  coordinator_->handle_command(pause, now_);
+  EXPECT_TRUE(out_.replies.back().ok());
+  worker("a", 4);
+  coordinator_->tick(now_);
+  EXPECT_TRUE(out_.candidates.empty());
+  pause.kind(msg::COMMAND_RESUME);
+  coordinator_->handle_command(pause, now_);
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(out_.candidates.size(), 4u);
+}
+
+}  // namespace
+}  // namespace cpgmatch::service
