@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <set>
 #include <vector>
 
 #include "cpgmatch/dds/convert.hpp"
@@ -237,6 +238,22 @@ TEST_F(CoordinatorTest, PausedStudyGetsNoNewCandidates) {
   coordinator_->handle_command(pause, now_);
   coordinator_->tick(now_ += 0.1);
   EXPECT_EQ(out_.candidates.size(), 4u);
+}
+
+TEST_F(CoordinatorTest, SeveralStudiesShareTheWorkersAndAllFinish) {
+  const int first = submit(6, 6);
+  const int second = submit(6, 6);
+  worker("a", 1);
+  std::set<std::uint32_t> served_early;
+  for (int round = 0; round < 40 && !coordinator_->idle(); ++round) {
+    coordinator_->tick(now_ += 0.1);
+    if (round < 4 && !out_.candidates.empty()) served_early.insert(out_.candidates.back().study_id());
+    answer_all();
+  }
+  EXPECT_EQ(served_early.size(), 2u) << "round-robin should serve both studies from the start";
+  EXPECT_EQ(store_->load(first)->state, "done");
+  EXPECT_EQ(store_->load(second)->state, "done");
+  EXPECT_EQ(out_.trials.size(), 12u);
 }
 
 }  // namespace
