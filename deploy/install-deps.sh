@@ -9,6 +9,8 @@ PACKAGES=(
   cmake g++ make pkg-config
   # transport
   libfastrtps-dev fastddsgen fastdds-tools
+  # a second DDS vendor, for the cross-vendor test (Cyclone DDS reads our study state)
+  cyclonedds-dev cyclonedds-tools
   # science: linear algebra, physics, optimisation, quasi-random sequences
   libeigen3-dev libode-dev libnlopt-dev libnlopt-cxx-dev libceres-dev libgsl-dev
   # configuration, CLI, logging, JSON, storage

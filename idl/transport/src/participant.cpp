@@ -71,6 +71,12 @@ fdds::Topic* Participant::topic(TopicId id) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (auto it = topics_.find(id); it != topics_.end()) return it->second;
   fdds::TypeSupport type = type_support(id);
+  // Do not announce XTypes TypeInformation/TypeObject in discovery: Cyclone DDS 0.10 rejects Fast DDS
+  // 2.9's TYPE_INFORMATION parameter as invalid and drops the endpoint (tests/interop shows it).
+  // Matching then goes by type name, which both vendors generate identically from the same IDL.
+  // The content filter still finds the types in the local TypeObject registry.
+  type->auto_fill_type_information(false);
+  type->auto_fill_type_object(false);
   if (type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {
     throw std::runtime_error(fmt::format("DDS: cannot register type {}", type.get_type_name()));
   }
