@@ -121,7 +121,7 @@ int main(int argc, char** argv) {
   app.add_flag("--fsync", full_durability, "fsync every commit (survives power loss, not only a crash)");
   app.add_option("--worker-timeout", worker_timeout_s, "seconds without a heartbeat before a worker is dropped")
       ->capture_default_str();
-  app.add_flag("--localhost-only", localhost_only, "shared memory and 127.0.0.1 only (a private study)");
+  app.add_flag("--localhost-only", localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
   try {
     app.parse(argc, argv);

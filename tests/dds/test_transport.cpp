@@ -44,8 +44,8 @@ msg::Candidate candidate(std::uint32_t trial, const std::string& worker) {
 }
 
 TEST(Transport, ContentFilterDeliversOnlyTheWorkersOwnCandidates) {
-  Participant optimizer(ParticipantConfig{230, "test-optimizer", true});
-  Participant worker(ParticipantConfig{230, "test-worker", true});
+  Participant optimizer(ParticipantConfig{35, "test-optimizer", true});
+  Participant worker(ParticipantConfig{35, "test-worker", true});
   Inbox<msg::Candidate> inbox;
   Reader<msg::Candidate> reader(worker, "candidates_for_a", "worker_id = %0", {"'a'"},
                                 [&](const msg::Candidate& c) { inbox.push(c); });
@@ -63,7 +63,7 @@ TEST(Transport, ContentFilterDeliversOnlyTheWorkersOwnCandidates) {
 }
 
 TEST(Transport, LateReaderGetsTransientLocalStatePerInstance) {
-  Participant optimizer(ParticipantConfig{231, "test-optimizer", true});
+  Participant optimizer(ParticipantConfig{36, "test-optimizer", true});
   Writer<msg::StudyState> writer(optimizer);
   for (std::uint32_t study = 1; study <= 20; ++study) {  // more than Fast DDS's default of 10 instances
     msg::StudyState s;
@@ -73,7 +73,7 @@ TEST(Transport, LateReaderGetsTransientLocalStatePerInstance) {
     s.completed(study * 3);  // the newer sample replaces the older one
     ASSERT_TRUE(writer.write(s));
   }
-  Participant client(ParticipantConfig{231, "test-client", true});
+  Participant client(ParticipantConfig{36, "test-client", true});
   Inbox<msg::StudyState> inbox;
   Reader<msg::StudyState> reader(client, [&](const msg::StudyState& s) { inbox.push(s); });
   ASSERT_TRUE(inbox.wait_for(20, 10s));
@@ -84,8 +84,8 @@ TEST(Transport, LateReaderGetsTransientLocalStatePerInstance) {
 }
 
 TEST(Transport, ReaderHearsWhenAnInstanceIsUnregistered) {
-  Participant a(ParticipantConfig{232, "test-worker", true});
-  Participant b(ParticipantConfig{232, "test-optimizer", true});
+  Participant a(ParticipantConfig{37, "test-worker", true});
+  Participant b(ParticipantConfig{37, "test-optimizer", true});
   Inbox<msg::WorkerAnnouncement> alive;
   Inbox<msg::WorkerAnnouncement> gone;
   Reader<msg::WorkerAnnouncement> reader(

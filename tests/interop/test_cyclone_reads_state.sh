@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Cross-vendor: a study run by the Fast DDS services (default transports), then a Cyclone DDS reader
+# Cross-vendor: a study run by the Fast DDS services (UDP, multicast discovery), then a Cyclone DDS reader
 # started afterwards reads its final state from cpgmatch/study_state.
 source "$(dirname "$0")/../integration/lib.sh"
 READER=${READER:?READER must point at cyclone_state_reader}
+# UDP only on the Fast DDS side (Cyclone cannot use Fast DDS's shared memory anyway).
+export FASTRTPS_DEFAULT_PROFILES_FILE="$(cd "$(dirname "$0")/../.." && pwd)/deploy/fastdds/udp-only.xml"
 write_study "$WORK/s.yaml" interop 8
 "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --store "$WORK/s.db" >>"$WORK/optimizer.log" 2>&1 &
 PIDS+=($!)

@@ -88,7 +88,7 @@ int ServiceFlags::resolved_domain() const {
 
 void add_service_flags(CLI::App* cmd, ServiceFlags& f) {
   cmd->add_option("--domain", f.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
-  cmd->add_flag("--localhost-only", f.localhost_only, "shared memory and 127.0.0.1 only");
+  cmd->add_flag("--localhost-only", f.localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   cmd->add_option("--timeout", f.timeout_s, "seconds to wait for the optimizer")->capture_default_str();
 }
 

@@ -1,5 +1,5 @@
 // `cpgmatch study run`: a full local study (the paper's, by default). Starts the optimizer service and
-// simulation workers as child processes on a private DDS domain (shared memory and loopback only),
+// simulation workers as child processes on a private DDS domain (UDP on loopback only),
 // submits the study, shows progress until it is done and stops them. At the end it writes trials, a
 // summary and plots from the trial records it read over DDS, and compares with the paper.
 #include <unistd.h>

@@ -198,7 +198,7 @@ int main(int argc, char** argv) {
   app.add_option("--fake-rollout-ms", o.fake_rollout_ms,
                  "benchmark mode: replace each rollout by a fixed delay (ms) and a synthetic cost");
   app.add_option("--heartbeat", o.heartbeat_s, "seconds between announcements")->capture_default_str();
-  app.add_flag("--localhost-only", o.localhost_only, "shared memory and 127.0.0.1 only (a private study)");
+  app.add_flag("--localhost-only", o.localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
   app.add_flag("--run-one", run_one, "internal: one rollout, request as JSON on stdin")->group("");
   try {

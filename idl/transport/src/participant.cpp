@@ -1,11 +1,12 @@
 #include "cpgmatch/dds/participant.hpp"
 
+#include <algorithm>
 #include <thread>
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
-#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
 #include <fmt/format.h>
 
 #include "cpgmatch/dds/domain.hpp"
@@ -46,11 +47,20 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
   factory->get_default_participant_qos(qos);
   qos.name(config.name);
   if (config.localhost_only) {
+    // UDP on 127.0.0.1 only, discovery by unicast to the well-known ports of the first 64 participant
+    // ids on this host. No shared memory: after a SIGKILL its segments can be left half-owned, and a
+    // participant restarted on the same ports then stops hearing new peers (seen in the restart test).
     qos.transport().use_builtin_transports = false;
-    qos.transport().user_transports.push_back(std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
     auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
     udp->interfaceWhiteList.emplace_back("127.0.0.1");
+    // RTPS port mapping: 7400 + 250 * domain + 10 + 2 * participant id must stay below 65536.
+    const int free_ids = (65535 - 7400 - 250 * config.domain - 11) / 2;
+    udp->maxInitialPeersRange = static_cast<std::uint32_t>(std::clamp(free_ids, 1, 64));
     qos.transport().user_transports.push_back(udp);
+    eprosima::fastrtps::rtps::Locator_t peer;
+    eprosima::fastrtps::rtps::IPLocator::setIPv4(peer, 127, 0, 0, 1);
+    qos.wire_protocol().builtin.initialPeersList.clear();
+    qos.wire_protocol().builtin.initialPeersList.push_back(peer);
   }
   participant_ = factory->create_participant(config.domain, qos);
   if (participant_ == nullptr) {

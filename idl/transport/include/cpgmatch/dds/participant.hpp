@@ -36,7 +36,7 @@ namespace cpgmatch::dds {
 struct ParticipantConfig {
   int domain = 0;
   std::string name = "cpgmatch";
-  // Shared memory plus UDP on 127.0.0.1 only: a private study on one machine (`study run`, tests).
+  // UDP on 127.0.0.1 only, unicast discovery: a private study on one machine (`study run`, tests).
   // Otherwise Fast DDS's defaults apply, or the XML profile in $FASTRTPS_DEFAULT_PROFILES_FILE.
   bool localhost_only = false;
 };
