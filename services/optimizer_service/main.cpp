@@ -122,7 +122,9 @@ int main(int argc, char** argv) {
   app.add_option("--worker-timeout", worker_timeout_s, "seconds without a heartbeat before a worker is dropped")
       ->capture_default_str();
   app.add_flag("--localhost-only", localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
-  app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
+  app.add_option("--log-level", log_level, "log level")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -132,13 +134,8 @@ int main(int argc, char** argv) {
   spdlog::set_level(spdlog::level::from_str(log_level));
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
-  try {
-    return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability, worker_timeout_s, localhost_only);
-  } catch (const InputError& e) {
-    std::cerr << "error: " << e.what() << std::endl;
-    return kExitBadInput;
-  } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << std::endl;
-    return kExitFailure;
-  }
+  return run_reporting_errors([&] {
+    return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
+                        worker_timeout_s, localhost_only);
+  });
 }

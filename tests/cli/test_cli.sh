@@ -67,6 +67,18 @@ check "failure is logged" grep -q "not a finite number" "$tmp/f.err"
 check "bench-optimizer json" python3 -c "
 import json; r=json.load(open('$tmp/b.json')); assert {'best','regret','best_index','wall_time_s','proposal_ms_last'} <= set(r)"
 
+# The service executables and clients: bad flags and environment exit 2 naming them; no optimizer is
+# a clear failure (exit 1), not a hang.
+bindir="$(dirname "$bin")"
+check "worker --slots 0" expect_exit 2 "\-\-slots" "$bindir/cpgmatch-sim-worker" --slots 0
+check "worker --id too long" expect_exit 2 "\-\-id" "$bindir/cpgmatch-sim-worker" --id "$(printf 'w%.0s' {1..80})"
+check "optimizer --domain 999" expect_exit 2 "domain" "$bindir/cpgmatch-optimizer" --domain 999 --store "$tmp/x.db"
+check "optimizer bad --log-level" expect_exit 2 "log-level" "$bindir/cpgmatch-optimizer" --log-level loud
+check "CPGMATCH_DOMAIN not a number" expect_exit 2 "CPGMATCH_DOMAIN" env CPGMATCH_DOMAIN=abc "$bin" status
+check "submit a missing file" expect_exit 2 "nope.yaml" "$bin" study submit --config "$tmp/nope.yaml" --domain 90
+check "status without an optimizer" expect_exit 1 "no optimizer" "$bin" status --domain 90 --localhost-only --timeout 1
+check "run-one with a bad request" expect_exit 2 "request" sh -c "echo '{\"params\": {}}' | '$bindir/cpgmatch-sim-worker' --run-one"
+
 # A small local study runs end to end and writes its results.
 printf 'name: tiny\nbudget: 6\ninitial_points: 4\nrollout: {entrain_s: 1.0, eval_s: 1.0}\n' >"$tmp/tiny.yaml"
 "$bin" study run --config "$tmp/tiny.yaml" --workers 2 --out "$tmp/tiny" --quiet --json >"$tmp/study.json"

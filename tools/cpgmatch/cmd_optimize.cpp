@@ -11,18 +11,9 @@
 #include "progress.hpp"
 
 namespace cpgmatch::cli {
-namespace {
-
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-}  // namespace
 
 std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed, double entrain_s, double eval_s) {
-  std::string cmd = fmt::format("{} eval-rollout --terrain {} --seed {}", quote(self_executable()), quote(terrain), seed);
+  std::string cmd = fmt::format("{} eval-rollout --terrain {} --seed {}", shell_quote(self_executable()), shell_quote(terrain), seed);
   if (entrain_s >= 0.0) cmd += fmt::format(" --entrain {}", entrain_s);
   if (eval_s > 0.0) cmd += fmt::format(" --eval {}", eval_s);
   return cmd;

@@ -41,7 +41,7 @@ constexpr std::size_t kReportsKept = 4096;
 
 struct Options {
   int domain = -1;
-  int slots = 0;
+  int slots = -1;  // -1: number of cores
   std::string id;
   double fake_rollout_ms = -1.0;
   double heartbeat_s = 0.5;
@@ -199,7 +199,9 @@ int main(int argc, char** argv) {
                  "benchmark mode: replace each rollout by a fixed delay (ms) and a synthetic cost");
   app.add_option("--heartbeat", o.heartbeat_s, "seconds between announcements")->capture_default_str();
   app.add_flag("--localhost-only", o.localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
-  app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
+  app.add_option("--log-level", log_level, "log level")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->capture_default_str();
   app.add_flag("--run-one", run_one, "internal: one rollout, request as JSON on stdin")->group("");
   try {
     app.parse(argc, argv);
@@ -208,11 +210,11 @@ int main(int argc, char** argv) {
   }
   spdlog::set_default_logger(spdlog::stderr_color_mt("worker"));
   spdlog::set_level(spdlog::level::from_str(log_level));
-  try {
+  return run_reporting_errors([&] {
     if (run_one) return worker::run_one();
     if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
     cpgmatch::dds::validate_domain(o.domain);
-    if (o.slots == 0) o.slots = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    if (o.slots == -1) o.slots = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     if (o.slots < 1 || o.slots > 4096) throw InputError(fmt::format("--slots must be in 1..4096, got {}", o.slots));
     if (o.heartbeat_s <= 0.0 || o.heartbeat_s > 10.0) throw InputError("--heartbeat must be in (0, 10] s");
     if (o.id.empty()) {
@@ -227,11 +229,5 @@ int main(int argc, char** argv) {
     worker::SimWorker w(o);
     w.run();
     return kExitOk;
-  } catch (const InputError& e) {
-    std::cerr << "error: " << e.what() << std::endl;
-    return kExitBadInput;
-  } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << std::endl;
-    return kExitFailure;
-  }
+  });
 }

@@ -17,12 +17,6 @@ namespace cpgmatch::worker {
 
 namespace {
 
-std::string quote(const std::string& s) {
-  std::string out = "'";
-  for (char ch : s) out += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
-  return out + "'";
-}
-
 msg::RolloutReport failed(const msg::Candidate& c, const SlotOptions& o, const std::string& why) {
   msg::RolloutReport r;
   r.study_id(c.study_id());
@@ -103,7 +97,7 @@ msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions&
     r.fell(false);
     r.fall_time_s(-1.0);
   } else {
-    const std::string command = fmt::format("{} --run-one", quote(self_executable()));
+    const std::string command = fmt::format("{} --run-one", shell_quote(self_executable()));
     const double timeout = c.lease_s() > 0.0 ? c.lease_s() : 600.0;
     const EvaluationOutcome outcome = run_command_objective(command, rollout_request(c).dump(), timeout);
     if (!outcome.ok) return failed(c, o, outcome.message);

@@ -18,6 +18,9 @@ struct EvaluationOutcome {
 
 EvaluationOutcome run_command_objective(const std::string& command, const std::string& stdin_text, double timeout_s);
 
+// `s` as one single-quoted sh word.
+std::string shell_quote(const std::string& s);
+
 // Path of the running executable (to call our own subcommands as child processes).
 std::string self_executable();
 

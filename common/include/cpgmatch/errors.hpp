@@ -5,6 +5,7 @@
 // errors are not InputError; they are assertions or std::logic_error.
 #pragma once
 
+#include <iostream>
 #include <stdexcept>
 #include <string>
 
@@ -19,5 +20,20 @@ class InputError : public std::runtime_error {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
+
+// Runs an executable's body and turns what escapes it into the exit codes above, with "error: ..." on
+// stderr: InputError -> 2, anything else -> 1.
+template <class Body>
+int run_reporting_errors(Body&& body) {
+  try {
+    return body();
+  } catch (const InputError& e) {
+    std::cerr << "error: " << e.what() << std::endl;
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << std::endl;
+    return kExitFailure;
+  }
+}
 
 }  // namespace cpgmatch
