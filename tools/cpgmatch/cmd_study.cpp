@@ -288,7 +288,12 @@ void add_study_command(CLI::App& app) {
         throw std::runtime_error(fmt::format("interrupted; the study is kept in {} (resume with --store)", store));
       }
       if (!children.front()->running()) {
+        stop_all();
         throw std::runtime_error(fmt::format("the optimizer service exited; see {}", (dir / "optimizer.log").string()));
+      }
+      if (std::none_of(children.begin() + 1, children.end(), [](auto& c) { return c->running(); })) {
+        stop_all();
+        throw std::runtime_error(fmt::format("every worker exited; see {}", (dir / "worker-0.log").string()));
       }
       const auto states = client.states();
       if (auto it = states.find(submitted.study_id); it != states.end()) {
