@@ -50,7 +50,7 @@ class CoordinatorTest : public ::testing::Test {
   }
   int submit(int budget, int initial) {
     msg::StudyCommand c;
-    c.correlation_id(42);
+    c.correlation_id(++correlation_);
     c.client_id("test");
     c.kind(msg::COMMAND_SUBMIT);
     c.study_yaml("name: t\nbudget: " + std::to_string(budget) + "\ninitial_points: " + std::to_string(initial) +
@@ -90,6 +90,7 @@ class CoordinatorTest : public ::testing::Test {
   std::unique_ptr<Coordinator> coordinator_;
   std::vector<std::string> warnings_;
   std::size_t answered_ = 0;
+  std::uint64_t correlation_ = 0;
   double now_ = 1000.0;
 };
 
@@ -218,15 +219,34 @@ TEST_F(CoordinatorTest, BadCommandsAreRefusedWithTheReason) {
   EXPECT_FALSE(out_.replies[0].ok());
   EXPECT_NE(out_.replies[0].message().to_string().find("bad.yaml:2"), std::string::npos) << out_.replies[0].message().to_string();
   c.kind(msg::COMMAND_PAUSE);
+  c.correlation_id(2);
   c.study_id(5);
   coordinator_->handle_command(c, now_);
   EXPECT_FALSE(out_.replies[1].ok());
   EXPECT_EQ(coordinator_->studies(), 0);
 }
 
+TEST_F(CoordinatorTest, AResentCommandGetsTheSameReplyNotASecondStudy) {
+  msg::StudyCommand c;
+  c.correlation_id(7);
+  c.client_id("client-a");
+  c.kind(msg::COMMAND_SUBMIT);
+  c.study_yaml("name: once\n");
+  coordinator_->handle_command(c, now_);
+  coordinator_->handle_command(c, now_ + 2.0);  // the client did not see the reply and sent it again
+  ASSERT_EQ(out_.replies.size(), 2u);
+  EXPECT_EQ(coordinator_->studies(), 1);
+  EXPECT_EQ(out_.replies[0].study_id(), out_.replies[1].study_id());
+  EXPECT_TRUE(out_.replies[1].ok());
+  c.client_id("client-b");  // same correlation id from another client: a different command
+  coordinator_->handle_command(c, now_ + 3.0);
+  EXPECT_EQ(coordinator_->studies(), 2);
+}
+
 TEST_F(CoordinatorTest, PausedStudyGetsNoNewCandidates) {
   const int id = submit(10, 10);
   msg::StudyCommand pause;
+  pause.correlation_id(1001);
   pause.kind(msg::COMMAND_PAUSE);
   pause.study_id(static_cast<std::uint32_t>(id));
   coordinator_->handle_command(pause, now_);
@@ -235,6 +255,7 @@ TEST_F(CoordinatorTest, PausedStudyGetsNoNewCandidates) {
   coordinator_->tick(now_);
   EXPECT_TRUE(out_.candidates.empty());
   pause.kind(msg::COMMAND_RESUME);
+  pause.correlation_id(1002);
   coordinator_->handle_command(pause, now_);
   coordinator_->tick(now_ += 0.1);
   EXPECT_EQ(out_.candidates.size(), 4u);

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <algorithm>
 #include <condition_variable>
 #include <mutex>
 #include <random>
@@ -60,10 +61,19 @@ struct StudyClient::Impl {
     std::mt19937_64 rng(std::random_device{}());
     command.correlation_id(rng());
     command.client_id(client_id);
-    if (!commands.write(command)) throw std::runtime_error("DDS write of the command failed");
+    // At least once: re-send until a reply arrives. The optimizer answers a repeated correlation_id
+    // from its reply cache, so a re-sent submit never creates a second study.
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
     std::unique_lock<std::mutex> lock(mutex);
-    if (!changed.wait_for(lock, timeout, [&] { return received.count(command.correlation_id()) > 0; })) {
-      throw std::runtime_error(fmt::format("the optimizer did not reply within {:.0f} s", timeout_s));
+    while (received.count(command.correlation_id()) == 0) {
+      if (std::chrono::steady_clock::now() >= deadline) {
+        throw std::runtime_error(fmt::format("the optimizer did not reply within {:.0f} s", timeout_s));
+      }
+      lock.unlock();
+      if (!commands.write(command)) throw std::runtime_error("DDS write of the command failed");
+      lock.lock();
+      changed.wait_until(lock, std::min(deadline, std::chrono::steady_clock::now() + std::chrono::seconds(2)),
+                         [&] { return received.count(command.correlation_id()) > 0; });
     }
     const msg::CommandReply& r = received.at(command.correlation_id());
     return {r.ok(), static_cast<int>(r.study_id()), r.message().to_string()};

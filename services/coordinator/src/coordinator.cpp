@@ -16,6 +16,7 @@ namespace {
 // A study state sample at most this often while nothing terminal happens (a busy study would
 // otherwise publish one per report).
 constexpr double kStatePublishPeriod_s = 0.1;
+constexpr std::size_t kMaxReplies = 1024;
 
 msg::StudyStatus status_of(const std::string& state) {
   if (state == "paused") return msg::STUDY_PAUSED;
@@ -142,6 +143,11 @@ void Coordinator::submit(const msg::StudyCommand& command, double now_s, msg::Co
 }
 
 void Coordinator::handle_command(const msg::StudyCommand& command, double now_s) {
+  const auto key = std::make_pair(command.client_id().to_string(), command.correlation_id());
+  if (const auto done = replies_.find(key); done != replies_.end()) {
+    out_.reply(done->second);  // a re-sent command: same answer, not a second execution
+    return;
+  }
   msg::CommandReply reply;
   reply.correlation_id(command.correlation_id());
   reply.client_id(command.client_id());
@@ -182,6 +188,12 @@ void Coordinator::handle_command(const msg::StudyCommand& command, double now_s)
   }
   if (!reply.ok() && command.kind() != msg::COMMAND_SUBMIT) {
     warn_(fmt::format("command from {} refused: {}", command.client_id().to_string(), reply.message().to_string()));
+  }
+  replies_[key] = reply;
+  reply_order_.push_back(key);
+  if (reply_order_.size() > kMaxReplies) {
+    replies_.erase(reply_order_.front());
+    reply_order_.pop_front();
   }
   out_.reply(reply);
 }

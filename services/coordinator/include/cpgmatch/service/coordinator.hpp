@@ -126,6 +126,10 @@ class Coordinator {
   std::map<int, Study> studies_;
   std::map<std::string, Worker> workers_;
   std::map<int, double> last_state_publish_;
+  // Replies by (client_id, correlation_id): a client re-sends a command whose reply it did not get, and
+  // gets the same reply again instead of a second execution (a second study, say). Last kMaxReplies.
+  std::map<std::pair<std::string, std::uint64_t>, msg::CommandReply> replies_;
+  std::deque<std::pair<std::string, std::uint64_t>> reply_order_;
   int round_robin_ = 0;
   std::uint64_t rejected_ = 0;
 };
