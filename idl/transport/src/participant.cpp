@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/dds/domain.hpp"
+#include "cpgmatch/errors.hpp"
 #include "cpgmatch_msgsPubSubTypes.h"
 #include "cpgmatch_msgsTypeObject.h"
 
@@ -43,6 +44,11 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   // Start from the default profile so $FASTRTPS_DEFAULT_PROFILES_FILE (discovery server, security,
   // transports) applies to every cpgmatch process without code changes.
+  // load_profiles() first: the factory reads the XML lazily, and the default QoS asked for before that
+  // would silently ignore the profile (security, transports, discovery server).
+  if (factory->load_profiles() != ReturnCode_t::RETCODE_OK) {
+    throw InputError("FASTRTPS_DEFAULT_PROFILES_FILE: the Fast DDS XML profile could not be loaded");
+  }
   fdds::DomainParticipantQos qos;
   factory->get_default_participant_qos(qos);
   qos.name(config.name);
