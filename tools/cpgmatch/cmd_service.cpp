@@ -43,6 +43,13 @@ client::StudyClient connect(const ServiceFlags& f, bool trials = false) {
   return client::StudyClient(f.resolved_domain(), f.localhost_only, trials);
 }
 
+// Waits for an optimizer's state history; a clear error (exit 1) when none is on the domain.
+void require_optimizer(client::StudyClient& c, const ServiceFlags& f) {
+  if (!c.wait_for_optimizer(f.timeout_s)) {
+    throw std::runtime_error(fmt::format("no optimizer on DDS domain {}", f.resolved_domain()));
+  }
+}
+
 // Waits until the study reaches a terminal state, printing progress on stderr. Returns its last state.
 json wait_until_finished(client::StudyClient& c, int study_id, bool quiet) {
   std::signal(SIGINT, [](int) { g_interrupted = 1; });
@@ -172,8 +179,8 @@ void add_service_commands(CLI::App& app) {
           throw InputError(fmt::format("--study: no study {} on DDS domain {} (waited {:.0f} s)", o->study_id,
                                        o->service.resolved_domain(), o->service.timeout_s));
         }
-      } else if (!c.wait_for_optimizer(o->service.timeout_s)) {
-        throw std::runtime_error(fmt::format("no optimizer on DDS domain {}", o->service.resolved_domain()));
+      } else {
+        require_optimizer(c, o->service);
       }
       auto states = c.states();
       if (o->study_id >= 0) {
@@ -203,9 +210,7 @@ void add_service_commands(CLI::App& app) {
     add_service_flags(cmd, o->service);
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
-      if (!c.wait_for_optimizer(o->service.timeout_s)) {
-        throw std::runtime_error(fmt::format("no optimizer on DDS domain {}", o->service.resolved_domain()));
-      }
+      require_optimizer(c, o->service);
       std::signal(SIGINT, [](int) { g_interrupted = 1; });
       std::map<int, std::string> last;
       while (!g_interrupted) {
