@@ -12,12 +12,15 @@
 
 namespace cpgmatch::cli {
 
-std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed, double entrain_s, double eval_s) {
-  std::string cmd = fmt::format("{} eval-rollout --terrain {} --seed {}", shell_quote(self_executable()), shell_quote(terrain), seed);
-  if (entrain_s >= 0.0) cmd += fmt::format(" --entrain {}", entrain_s);
-  if (eval_s > 0.0) cmd += fmt::format(" --eval {}", eval_s);
-  return cmd;
+namespace {
+
+// `--objective rollout`: each point runs as a child process, `cpgmatch eval-rollout`.
+std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed) {
+  return fmt::format("{} eval-rollout --terrain {} --seed {}", shell_quote(self_executable()), shell_quote(terrain),
+                     seed);
 }
+
+}  // namespace
 
 void add_optimize_command(CLI::App& app) {
   struct Options {
@@ -53,7 +56,7 @@ void add_optimize_command(CLI::App& app) {
     }
     const bo::SearchSpace space = bo::SearchSpace::load(space_file);
     const std::string command =
-        rollout ? rollout_objective_command(opts->terrain, opts->flags.seed, -1.0, -1.0) : opts->objective_cmd;
+        rollout ? rollout_objective_command(opts->terrain, opts->flags.seed) : opts->objective_cmd;
 
     bo::BayesianOptimizer optimizer(space, options);
     ProgressLine progress(opts->flags.budget, opts->flags.quiet);

@@ -21,9 +21,6 @@ void add_study_command(CLI::App& app);
 void add_study_service_commands(CLI::App* study);
 void add_service_commands(CLI::App& app);
 
-// The command line that runs one rollout as a child process (`cpgmatch eval-rollout ...`).
-std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed, double entrain_s, double eval_s);
-
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,
                                 const std::string& settings_file, const std::string& model_file,
