@@ -123,6 +123,7 @@ CostBreakdown CostRecorder::evaluate(double cpg_frequency_hz) const {
 
   // Sum over legs of the per-leg mean torques = total / number of samples.
   const double torque_sum = (hip_torque + knee_torque) / samples_.size();
+  out.summed_torque_nm = torque_sum;
   const double speed_floor = config_.min_distance_m / duration;
   out.normalized_torque = torque_sum / std::max(out.mean_speed_mps, speed_floor);
 

@@ -19,6 +19,7 @@ nlohmann::json to_json(const RolloutResult& r) {
         {"contact", b.terms.contact},
         {"periodicity", b.terms.periodicity}}},
       {"normalized_torque", b.normalized_torque},
+      {"summed_torque_nm", b.summed_torque_nm},
       {"fell", r.fell},
       {"fall_time_s", r.fell ? nlohmann::json(r.fall_time_s) : nlohmann::json(nullptr)},
       {"distance_m", b.distance_m},

@@ -67,6 +67,7 @@ struct CostBreakdown {
   CostTerms terms;
   FeedbackFractions feedback_fraction;  // per mechanism, fraction of time averaged over legs
   double normalized_torque = 0.0;       // N m / (m/s)
+  double summed_torque_nm = 0.0;        // eq. (1)'s numerator: sum over joints of the mean |torque|, N m
   double distance_m = 0.0;
   double mean_speed_mps = 0.0;
 };

@@ -37,6 +37,7 @@ void fill_report(msg::RolloutReport& r, const RolloutResult& result) {
   r.j_contact(b.terms.contact);
   r.j_periodicity(b.terms.periodicity);
   r.normalized_torque(b.normalized_torque);
+  r.summed_torque_nm(b.summed_torque_nm);
   r.late_touchdown_fraction(b.feedback_fraction.late_touchdown);
   r.early_touchdown_fraction(b.feedback_fraction.early_touchdown);
   r.early_toeoff_fraction(b.feedback_fraction.early_toeoff);

@@ -35,6 +35,7 @@ nlohmann::json to_json(const msg::RolloutReport& r) {
             {"contact", number(r.j_contact())},
             {"periodicity", number(r.j_periodicity())}}},
           {"normalized_torque", number(r.normalized_torque())},
+          {"summed_torque_nm", number(r.summed_torque_nm())},
           {"feedback_fraction",
            {{"late_touchdown", number(r.late_touchdown_fraction())},
             {"early_touchdown", number(r.early_touchdown_fraction())},
@@ -65,6 +66,7 @@ msg::RolloutReport report_from_json(const nlohmann::json& j) {
   r.j_contact(num(t.at("contact")));
   r.j_periodicity(num(t.at("periodicity")));
   r.normalized_torque(num(j.at("normalized_torque")));
+  r.summed_torque_nm(j.contains("summed_torque_nm") ? num(j.at("summed_torque_nm")) : std::nan(""));
   const auto& f = j.at("feedback_fraction");
   r.late_touchdown_fraction(num(f.at("late_touchdown")));
   r.early_touchdown_fraction(num(f.at("early_touchdown")));
