@@ -1,16 +1,56 @@
 #include "cpgmatch/contact_sensor.hpp"
 
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/errors.hpp"
+
 namespace cpgmatch {
 
-ContactSensor::ContactSensor(ContactSensorConfig config, std::uint64_t seed)
-    : config_(config), rng_(seed) {}
+std::optional<FieldProblem> find_problem(const ContactSensorConfig& c) {
+  auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
+  if (!(in(c.threshold_n, 0.0, 1e4) && c.threshold_n > 0.0)) return FieldProblem{"threshold_n", "must be in (0, 1e4] N"};
+  if (!in(c.release_threshold_n, 0.0, c.threshold_n)) {
+    return FieldProblem{"release_threshold_n", "must be in [0, threshold_n] N"};
+  }
+  if (!in(c.min_stable_s, 0.0, 0.1)) return FieldProblem{"min_stable_s", "must be in [0, 0.1] s"};
+  if (!(in(c.poll_rate_hz, 0.0, 1e5) && c.poll_rate_hz > 0.0)) return FieldProblem{"poll_rate_hz", "must be in (0, 1e5] Hz"};
+  if (!in(c.noise_std_n, 0.0, 1e3)) return FieldProblem{"noise_std_n", "must be in [0, 1e3] N"};
+  if (!in(c.latency_s, 0.0, 0.1)) return FieldProblem{"latency_s", "must be in [0, 0.1] s"};
+  return std::nullopt;
+}
+
+void validate(const ContactSensorConfig& c) {
+  if (const auto p = find_problem(c)) throw InputError(fmt::format("contact_sensor.{}: {}", p->field, p->reason));
+}
+
+ContactSensor::ContactSensor(ContactSensorConfig config, std::uint64_t seed) : config_(config), rng_(seed) {
+  latest_.fill(true);
+  raw_.fill(true);
+  debounced_.fill(true);
+  raw_since_s_.fill(0.0);
+}
+
+bool ContactSensor::debounce(int leg, double time_s, double force_n) {
+  const bool raw = raw_[leg] ? force_n >= config_.release_threshold_n : force_n > config_.threshold_n;
+  if (raw != raw_[leg]) {
+    raw_[leg] = raw;
+    raw_since_s_[leg] = time_s;
+  }
+  // 1e-9: poll times are multiples of the physics step and may round just below the duration.
+  if (raw_[leg] != debounced_[leg] && time_s - raw_since_s_[leg] >= config_.min_stable_s - 1e-9) {
+    debounced_[leg] = raw_[leg];
+  }
+  return debounced_[leg];
+}
 
 PerLeg<bool> ContactSensor::poll(double time_s, const PerLeg<double>& normal_forces_n) {
   Sample sample{time_s, {}};
   std::normal_distribution<double> noise(0.0, config_.noise_std_n);
   for (int leg = 0; leg < kNumLegs; ++leg) {
     const double force = normal_forces_n[leg] + (config_.noise_std_n > 0.0 ? noise(rng_) : 0.0);
-    sample.contact[leg] = force > config_.threshold_n;
+    sample.contact[leg] = debounce(leg, time_s, force);
   }
   pending_.push_back(sample);
   // Release every sample that is at least `latency` old; the newest released one is what we report.

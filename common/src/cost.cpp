@@ -62,9 +62,9 @@ double dominant_frequency_hz(const std::vector<double>& signal, double sample_ra
   return (best + offset) * sample_rate_hz / padded.size();
 }
 
-double periodicity_term(const std::vector<double>& pitch_rad, double sample_rate_hz, double cpg_frequency_hz) {
+double periodicity_term(const std::vector<double>& pitch_rad, double sample_rate_hz, double expected_pitch_hz) {
   const double f_pitch = dominant_frequency_hz(pitch_rad, sample_rate_hz);
-  return std::sqrt((f_pitch - cpg_frequency_hz) * (f_pitch - cpg_frequency_hz));
+  return std::min(std::abs(f_pitch - expected_pitch_hz), expected_pitch_hz);
 }
 
 double contact_term(const std::vector<PerLeg<bool>>& contacts, double sample_rate_hz, double cpg_frequency_hz) {
@@ -79,12 +79,18 @@ double contact_term(const std::vector<PerLeg<bool>>& contacts, double sample_rat
   return extra / (2.0 * kNumLegs * steps);
 }
 
-double CostRecorder::fall_cost(double fall_time_s, double total_time_s) const {
-  const double lost = total_time_s > 0.0 ? std::clamp(1.0 - fall_time_s / total_time_s, 0.0, 1.0) : 1.0;
-  return config_.fall_cost_base + config_.fall_cost_per_lost_fraction * lost;
+double CostConfig::non_fall_bound(double expected_pitch_hz) const {
+  return weights.feedback * 4.0 + weights.distance / min_distance_m + weights.pitch * 2.0 * fall_max_abs_pitch_rad +
+         weights.contact * contact_cap + weights.periodicity * expected_pitch_hz;
 }
 
-CostBreakdown CostRecorder::evaluate(double cpg_frequency_hz) const {
+double CostRecorder::fall_cost(double fall_time_s, double total_time_s, double expected_pitch_hz) const {
+  const double lost = total_time_s > 0.0 ? std::clamp(1.0 - fall_time_s / total_time_s, 0.0, 1.0) : 1.0;
+  return config_.non_fall_bound(expected_pitch_hz) + config_.fall_cost_margin +
+         config_.fall_cost_per_lost_fraction * lost;
+}
+
+CostBreakdown CostRecorder::evaluate(double cpg_frequency_hz, double expected_pitch_hz) const {
   CostBreakdown out;
   if (samples_.size() < 2) return out;
   const double duration = samples_.back().time_s - samples_.front().time_s;
@@ -117,9 +123,10 @@ CostBreakdown CostRecorder::evaluate(double cpg_frequency_hz) const {
   out.distance_m = samples_.back().x_m - samples_.front().x_m;
   out.mean_speed_mps = out.distance_m / duration;
   out.terms.distance = 1.0 / std::max(out.distance_m, config_.min_distance_m);
-  out.terms.pitch = pitch_range_term(pitch, sample_rate, cpg_frequency_hz);
-  out.terms.contact = contact_term(contacts, sample_rate, cpg_frequency_hz);
-  out.terms.periodicity = periodicity_term(pitch, sample_rate, cpg_frequency_hz);
+  // Caps (see the header): the pitch range of a rollout that did not fall is below 2 x the fall pitch anyway.
+  out.terms.pitch = std::min(pitch_range_term(pitch, sample_rate, cpg_frequency_hz), 2.0 * config_.fall_max_abs_pitch_rad);
+  out.terms.contact = std::min(contact_term(contacts, sample_rate, cpg_frequency_hz), config_.contact_cap);
+  out.terms.periodicity = periodicity_term(pitch, sample_rate, expected_pitch_hz);
 
   // Sum over legs of the per-leg mean torques = total / number of samples.
   const double torque_sum = (hip_torque + knee_torque) / samples_.size();

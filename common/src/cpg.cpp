@@ -77,6 +77,15 @@ double PhaseOscillatorNetwork::locking_error() const {
   return worst;
 }
 
+int pitch_harmonic(const Gait& gait) {
+  auto pair_is_half_cycle_symmetric = [&](int a, int b) {
+    // Two legs of one girdle: the half-cycle shift maps a onto b (or each onto itself, a pronking pair).
+    const double d = wrap_half(gait.phase_offsets[b] - gait.phase_offsets[a]);
+    return std::abs(std::abs(d) - 0.5) < 1e-9;
+  };
+  return pair_is_half_cycle_symmetric(kFrontLeft, kFrontRight) && pair_is_half_cycle_symmetric(kHindLeft, kHindRight) ? 2 : 1;
+}
+
 StepTiming step_timing(const CpgParameters& params, int leg) {
   const double duty = is_front(leg) ? params.duty_factor_front : params.duty_factor_hind;
   const double swing = 1.0 - duty;

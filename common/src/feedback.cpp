@@ -20,6 +20,8 @@ LegFeedback::LegFeedback(FeedbackConfig config) : config_(config) {}
 void LegFeedback::reset() {
   initialised_ = false;
   touched_down_ = lifted_off_ = reflex_used_ = false;
+  airborne_s_ = last_flight_s_ = 0.0;
+  was_contact_ = true;
   reflex_time_left_ = 0.0;
   early_flex_start_ = -1.0;
 }
@@ -48,6 +50,13 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
     // Touchdown during retraction (before the wrap) counts as on time.
   }
   last_phase_ = phase;
+  if (contact) {
+    if (!was_contact_) last_flight_s_ = airborne_s_;
+    airborne_s_ = 0.0;
+  } else {
+    airborne_s_ += dt_s;
+  }
+  was_contact_ = contact;
 
   FeedbackAction action;
   const bool in_stance = phase < duty;
@@ -64,6 +73,8 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
         early_flex_start_ < 0.0) {
       early_flex_start_ = phase;
     }
+    // The ground came back before the scheduled flexion: the leg is loaded again, cancel the early flexion.
+    if (contact && early_flex_start_ >= 0.0 && phase < timing.knee_flex_start) early_flex_start_ = -1.0;
     if (early_flex_start_ >= 0.0 && phase < timing.knee_flex_start) {
       action.activity.early_toeoff = true;
     }
@@ -78,8 +89,9 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
       }
     }
     // Early touchdown: touched again after lifting off, before retraction.
-    if (contact && lifted_off_ && phase < timing.retraction_start && !reflex_used_ &&
-        config_.early_touchdown) {
+    // Early touchdown: touched again after a real flight (not a scuff just after toe-off), before retraction.
+    if (contact && lifted_off_ && last_flight_s_ >= config_.etd_min_airborne_s &&
+        phase < timing.retraction_start && !reflex_used_ && config_.early_touchdown) {
       reflex_used_ = true;
       reflex_time_left_ = config_.reflex_duration_s;
     }

@@ -32,6 +32,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
                           std::uint64_t seed, const TraceSink& trace) {
   const auto wall_start = std::chrono::steady_clock::now();
   validate(params);
+  validate(settings.contact_sensor);
   const double dt = plant.time_step_s();
   const double physics_rate = 1.0 / dt;
   const int control_every = divider(physics_rate, settings.controller.control_rate_hz, "control");
@@ -90,8 +91,10 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   }
 
   result.sim_time_s = plant.state().time_s;
-  result.breakdown = recorder.evaluate(params.frequency);
-  result.cost = result.fell ? recorder.fall_cost(result.fall_time_s, total_time) : result.breakdown.cost;
+  const double expected_pitch_hz = params.frequency * pitch_harmonic(Gait::named(settings.controller.gait));
+  result.breakdown = recorder.evaluate(params.frequency, expected_pitch_hz);
+  result.cost = result.fell ? recorder.fall_cost(result.fall_time_s, total_time, expected_pitch_hz)
+                            : result.breakdown.cost;
   result.breakdown.cost = result.cost;
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
@@ -134,7 +137,7 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       const YamlReader f = c.child("feedback");
       f.reject_unknown_keys({"late_touchdown", "early_touchdown", "early_toeoff", "late_toeoff_deceleration",
                              "late_touchdown_phase_rate", "late_toeoff_phase_rate", "reflex_duration_s",
-                             "reflex_knee_flexion_rad", "reflex_hip_passive"});
+                             "reflex_knee_flexion_rad", "reflex_hip_passive", "etd_min_airborne_s"});
       auto& fb = cc.feedback;
       fb.late_touchdown = f.get_bool("late_touchdown", fb.late_touchdown);
       fb.early_touchdown = f.get_bool("early_touchdown", fb.early_touchdown);
@@ -145,6 +148,8 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       fb.reflex_duration_s = f.get_double("reflex_duration_s", fb.reflex_duration_s);
       fb.reflex_knee_flexion_rad = f.get_double("reflex_knee_flexion_rad", fb.reflex_knee_flexion_rad);
       fb.reflex_hip_passive = f.get_bool("reflex_hip_passive", fb.reflex_hip_passive);
+      fb.etd_min_airborne_s = f.get_double("etd_min_airborne_s", fb.etd_min_airborne_s);
+      if (!(fb.etd_min_airborne_s >= 0.0 && fb.etd_min_airborne_s <= 0.5)) f.fail("etd_min_airborne_s", "must be in [0, 0.5] s");
       if (fb.late_touchdown_phase_rate < 0.0 || fb.late_touchdown_phase_rate > 1.0) {
         f.fail("late_touchdown_phase_rate", "must be in [0, 1]");
       }
@@ -156,20 +161,21 @@ RolloutSettings load_rollout_settings(const std::string& path) {
   }
   if (r.has("contact_sensor")) {
     const YamlReader c = r.child("contact_sensor");
-    c.reject_unknown_keys({"threshold_n", "poll_rate_hz", "noise_std_n", "latency_s"});
+    c.reject_unknown_keys({"threshold_n", "release_threshold_n", "min_stable_s", "poll_rate_hz", "noise_std_n",
+                           "latency_s"});
     auto& cs = s.contact_sensor;
     cs.threshold_n = c.get_double("threshold_n", cs.threshold_n);
+    cs.release_threshold_n = c.get_double("release_threshold_n", cs.release_threshold_n);
+    cs.min_stable_s = c.get_double("min_stable_s", cs.min_stable_s);
     cs.poll_rate_hz = c.get_double("poll_rate_hz", cs.poll_rate_hz);
     cs.noise_std_n = c.get_double("noise_std_n", cs.noise_std_n);
     cs.latency_s = c.get_double("latency_s", cs.latency_s);
-    if (cs.poll_rate_hz <= 0.0) c.fail("poll_rate_hz", "must be > 0");
-    if (cs.noise_std_n < 0.0) c.fail("noise_std_n", "must be >= 0");
-    if (cs.latency_s < 0.0) c.fail("latency_s", "must be >= 0");
+    if (const auto problem = find_problem(cs)) c.fail(problem->field, problem->reason);
   }
   if (r.has("cost")) {
     const YamlReader c = r.child("cost");
     c.reject_unknown_keys({"weights", "min_distance_m", "fall_max_abs_pitch_rad", "fall_min_height_m",
-                           "fall_cost_base", "fall_cost_per_lost_fraction"});
+                           "fall_cost_margin", "fall_cost_per_lost_fraction", "contact_cap"});
     auto& cc = s.cost;
     if (c.has("weights")) {
       const YamlReader w = c.child("weights");
@@ -183,7 +189,10 @@ RolloutSettings load_rollout_settings(const std::string& path) {
     cc.min_distance_m = c.get_double("min_distance_m", cc.min_distance_m);
     cc.fall_max_abs_pitch_rad = c.get_double("fall_max_abs_pitch_rad", cc.fall_max_abs_pitch_rad);
     cc.fall_min_height_m = c.get_double("fall_min_height_m", cc.fall_min_height_m);
-    cc.fall_cost_base = c.get_double("fall_cost_base", cc.fall_cost_base);
+    cc.fall_cost_margin = c.get_double("fall_cost_margin", cc.fall_cost_margin);
+    cc.contact_cap = c.get_double("contact_cap", cc.contact_cap);
+    if (!(cc.fall_cost_margin > 0.0)) c.fail("fall_cost_margin", "must be > 0 (a fall must cost more than any non-fall)");
+    if (!(cc.contact_cap > 0.0)) c.fail("contact_cap", "must be > 0");
     cc.fall_cost_per_lost_fraction = c.get_double("fall_cost_per_lost_fraction", cc.fall_cost_per_lost_fraction);
     if (cc.min_distance_m <= 0.0) c.fail("min_distance_m", "must be > 0");
   }

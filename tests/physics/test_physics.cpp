@@ -51,29 +51,79 @@ TEST(Physics, MatchedTrotWalksForwardFor20SecondsWithoutFalling) {
   EXPECT_GT(r.breakdown.distance_m, 2.5);
 }
 
-TEST(Physics, FeedbackKeepsTheMatchedTrotUp) {
-  SimRolloutJob job = job_with("matched-trot.yaml", "flat", 10.0, 10.0);
-  job.settings.controller.feedback = FeedbackConfig::none();
-  EXPECT_TRUE(run_sim_rollout(job).fell);  // the same gait open loop falls
+TEST(Physics, FeetSettleWithoutBouncing) {
+  // A bounce is a flight shorter than 30 ms right after a touchdown, seen in the *raw* foot force
+  // (any force at all): a contact with restitution, or undamped leg springs, throws the foot off again at once.
+  // Real steps (swing lasts >= 250 ms here) are far longer. A matched trot steps about once per leg and
+  // cycle and bounces (almost) never.
+  SimRolloutJob job = job_with("matched-trot.yaml", "flat", 10.0, 5.0);
+  PerLeg<bool> was{};
+  PerLeg<double> lifted_at{};
+  PerLeg<int> touchdowns{}, bounces{};
+  bool first = true;
+  run_sim_rollout(job, [&](const TraceSample& s) {
+    if (s.time_s < 10.0) return;
+    for (int leg = 0; leg < kNumLegs; ++leg) {
+      const bool now = s.state->legs[leg].foot_normal_force_n > 0.01;  // any force: the foot touches
+      if (!first && now && !was[leg]) {
+        ++touchdowns[leg];
+        if (s.time_s - lifted_at[leg] < 0.03) ++bounces[leg];
+      }
+      if (!first && !now && was[leg]) lifted_at[leg] = s.time_s;
+      was[leg] = now;
+    }
+    first = false;
+  });
+  const double steps = 5.0 * job.params.frequency;
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    EXPECT_LE(bounces[leg] / steps, 0.2) << kLegNames[leg];
+    EXPECT_GE(touchdowns[leg] / steps, 0.8) << kLegNames[leg] << " (the foot must still step)";
+  }
 }
 
-// Feedback activity of one mechanism, summed over legs, in the half second after `from_s`.
-int activity_after(const SimRolloutJob& job, double from_s, bool FeedbackActivity::*mechanism) {
+// Hip excursion of the front-left leg during `passive_s` of passive hips, starting from walking.
+double passive_hip_excursion(const MortiModel& model, double passive_s) {
+  OdePlant plant(model, TerrainSpec::parse("flat"), 0);
+  PerLeg<JointCommand> cmd{};
+  cmd[kFrontLeft].hip_angle_rad = 0.3;  // swing the leg forward first, in the air? no: it stands; load it
+  plant.command(cmd);
+  plant.advance(0.5);
+  const double start = plant.state().legs[kFrontLeft].hip_angle_rad;
+  for (auto& c : cmd) c.hip_passive = true;
+  plant.command(cmd);
+  double worst = 0.0;
+  for (double t = 0.0; t < passive_s; t += plant.time_step_s()) {
+    plant.advance(plant.time_step_s());
+    worst = std::max(worst, std::abs(plant.state().legs[kFrontLeft].hip_angle_rad - start));
+  }
+  return worst;
+}
+
+TEST(Physics, APassiveHipResistsLikeABackdrivenGearedMotor) {
+  // Standing, the FL hip held 0.3 rad forward, then every hip motor passive for the reflex's 0.12 s: the
+  // loaded legs push the hips around. A back-driven gearbox (friction, reflected rotor inertia) slows that
+  // down; a free hinge (the same model with the gearbox removed) gives way much faster.
+  const MortiModel geared = load_morti_model(default_model_path());
+  MortiModel free_hinge = geared;
+  free_hinge.hip_motor.coulomb_friction_nm = 0.0;
+  free_hinge.hip_motor.viscous_friction_nm_s_per_rad = 0.0;
+  free_hinge.hip_motor.reflected_inertia_kg_m2 = 0.0;
+  const double with_gearbox = passive_hip_excursion(geared, 0.12);
+  const double without = passive_hip_excursion(free_hinge, 0.12);
+  EXPECT_GT(without, 0.01) << "the loaded hips must move when nothing holds them";
+  EXPECT_LT(with_gearbox, 0.8 * without) << with_gearbox << " vs " << without;
+}
+
+// Feedback activity of one mechanism, summed over legs, in the second after `from_s` (one step cycle:
+// every leg meets the moved ground once).
+int activity_after(const SimRolloutJob& job, double from_s, bool FeedbackActivity::*mechanism,
+                   double window_s = 1.0) {
   int ticks = 0;
   run_sim_rollout(job, [&](const TraceSample& s) {
-    if (s.time_s < from_s || s.time_s >= from_s + 0.5) return;
+    if (s.time_s < from_s || s.time_s >= from_s + window_s) return;
     for (int leg = 0; leg < kNumLegs; ++leg) ticks += s.output->activity[leg].*mechanism;
   });
   return ticks;
-}
-
-TEST(Physics, LoweringTheGroundMakesLateTouchdownFire) {
-  // Identical rollouts until t = 3 s; then the ground drops 2 cm under the walking robot.
-  const int moved = activity_after(job_with("matched-trot.yaml", "shift:-0.02@3.0", 3.0, 1.0), 3.0,
-                                   &FeedbackActivity::late_touchdown);
-  const int still = activity_after(job_with("matched-trot.yaml", "shift:0.0@3.0", 3.0, 1.0), 3.0,
-                                   &FeedbackActivity::late_touchdown);
-  EXPECT_GT(moved, still);
 }
 
 TEST(Physics, RaisingTheGroundMakesEarlyTouchdownFire) {
@@ -111,17 +161,19 @@ TEST(Physics, OnGentlyRoughGroundFeedbackFallsNoMoreOftenThanOpenLoop) {
 }
 
 TEST(Physics, OnATreadmillTheMatchedTrotWalksTheBeltAndStaysNearItsStart) {
+  // The belt runs at the gait's own speed on fixed ground: walking on it, the body stays near its start.
   SimRolloutJob job = job_with("matched-trot.yaml", "flat", 10.0, 10.0);
-  job.terrain.treadmill_speed_mps = 0.3;
+  const double ground_speed = run_sim_rollout(job).breakdown.mean_speed_mps;
+  job.terrain.treadmill_speed_mps = ground_speed;
   double world_x_end = 0.0;
   const RolloutResult r = run_sim_rollout(job, [&](const TraceSample& s) {
     // Ground distance minus the belt's travel (the belt ramps up over 2 s) is where the trunk is.
-    const double belt = 0.3 * std::max(0.0, s.time_s - 1.0);
+    const double belt = ground_speed * std::max(0.0, s.time_s - 1.0);
     world_x_end = s.state->trunk.x_m - belt;
   });
   EXPECT_FALSE(r.fell);
-  EXPECT_GE(r.breakdown.mean_speed_mps, 0.25);  // speed over the belt, as on fixed ground
-  EXPECT_LT(std::abs(world_x_end), 0.5);        // the belt holds the body near its start
+  EXPECT_NEAR(r.breakdown.mean_speed_mps, ground_speed, 0.05);  // speed over the belt, as on fixed ground
+  EXPECT_LT(std::abs(world_x_end), 0.5);                         // the belt holds the body near its start
 }
 
 TEST(Physics, ModelFileErrorsNameFileLineAndField) {

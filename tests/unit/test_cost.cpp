@@ -59,7 +59,7 @@ TEST(Cost, RecorderCombinesTermsWithWeightsAndNormalisesTorqueBySpeed) {
     s.abs_knee_torque_nm = {0.5, 0.5, 0.5, 0.5};
     rec.add(s);
   }
-  const CostBreakdown b = rec.evaluate(1.0);
+  const CostBreakdown b = rec.evaluate(1.0, 1.0);
   EXPECT_NEAR(b.distance_m, 3.0, 1e-9);
   EXPECT_NEAR(b.terms.distance, 1.0 / 3.0, 1e-9);
   EXPECT_NEAR(b.feedback_fraction.late_touchdown, 0.025, 1e-3);  // 10 % / 4 legs
@@ -72,15 +72,48 @@ TEST(Cost, RecorderCombinesTermsWithWeightsAndNormalisesTorqueBySpeed) {
 TEST(Cost, StandingStillIsExpensiveButFinite) {
   CostRecorder rec({});
   for (int i = 0; i <= 1000; ++i) rec.add(CostSample{i / 500.0, -0.01, 0.0, {}, {}, {}, {}});
-  const CostBreakdown b = rec.evaluate(1.0);
+  const CostBreakdown b = rec.evaluate(1.0, 2.0);
   EXPECT_TRUE(std::isfinite(b.cost));
-  EXPECT_NEAR(b.terms.distance, 20.0, 1e-9);  // 1 / min_distance_m
+  EXPECT_NEAR(b.terms.distance, 1.0 / CostConfig{}.min_distance_m, 1e-9);
 }
 
 TEST(Cost, EarlierFallsCostMore) {
   CostRecorder rec({});
-  EXPECT_GT(rec.fall_cost(2.0, 20.0), rec.fall_cost(15.0, 20.0));
-  EXPECT_GE(rec.fall_cost(20.0, 20.0), 10.0);
+  EXPECT_GT(rec.fall_cost(2.0, 20.0, 2.0), rec.fall_cost(15.0, 20.0, 2.0));
+}
+
+// The worst rollout that does not fall: standing still (J_distance at its cap), every feedback mechanism
+// active all the time, the largest pitch range short of a fall, chattering contacts and a pitch spectrum far
+// from the gait's. Even this costs less than the mildest fall (one at the very end of the rollout).
+TEST(Cost, AFallAlwaysCostsMoreThanTheWorstRolloutThatDidNotFall) {
+  CostConfig cfg;
+  CostRecorder rec(cfg);
+  for (int i = 0; i <= 5000; ++i) {
+    CostSample s;
+    s.time_s = i / 500.0;
+    s.x_m = 0.0;
+    s.pitch_rad = 0.79 * std::sin(2 * M_PI * 37.0 * s.time_s);  // near the fall limit, at 37 Hz
+    const bool c = i % 2 == 0;                                  // contact flips every sample
+    s.contact = {c, c, c, c};
+    for (auto& a : s.activity) a = {true, true, true, true};
+    rec.add(s);
+  }
+  const double expected_pitch_hz = 2.0;
+  const CostBreakdown worst = rec.evaluate(1.0, expected_pitch_hz);
+  EXPECT_GT(worst.terms.distance, 3.9);
+  EXPECT_GT(worst.terms.contact, 1.9);
+  EXPECT_LE(worst.cost, cfg.non_fall_bound(expected_pitch_hz));
+  EXPECT_GT(rec.fall_cost(20.0, 20.0, expected_pitch_hz), worst.cost);
+}
+
+TEST(Cost, CleanTrotPitchAtTwiceTheStepFrequencyScoresZeroPeriodicity) {
+  // A symmetric trot loads front and hind twice per cycle: pitch at 2 f plus a weaker f component from
+  // a small left/right asymmetry. Compared with the gait's expected 2 f, not with f.
+  std::vector<double> pitch = sine(2.0, 0.05, 500, 10);
+  const std::vector<double> asym = sine(1.0, 0.01, 500, 10);
+  for (std::size_t i = 0; i < pitch.size(); ++i) pitch[i] += asym[i];
+  EXPECT_NEAR(periodicity_term(pitch, 500, 2.0), 0.0, 0.02);
+  EXPECT_NEAR(periodicity_term(pitch, 500, 1.0), 1.0, 0.02);  // the paper's literal f_cpg would charge 1 Hz
 }
 
 }  // namespace

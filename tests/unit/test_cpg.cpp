@@ -109,5 +109,13 @@ TEST(Parameters, BadValuesAreRejectedByName) {
   EXPECT_EQ(p.overswing, 0.3);
 }
 
+TEST(Cpg, BodyPitchRepeatsTwicePerCycleInGaitsWhoseGirdlesAlternateLeftRight) {
+  EXPECT_EQ(pitch_harmonic(Gait::named("trot")), 2);
+  EXPECT_EQ(pitch_harmonic(Gait::named("pace")), 2);
+  EXPECT_EQ(pitch_harmonic(Gait::named("walk")), 2);
+  EXPECT_EQ(pitch_harmonic(Gait::named("bound")), 1);
+  EXPECT_EQ(pitch_harmonic(Gait::named("pronk")), 1);
+}
+
 }  // namespace
 }  // namespace cpgmatch

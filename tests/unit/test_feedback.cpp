@@ -88,6 +88,39 @@ TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
   EXPECT_NEAR(flex_start, 0.25, 0.01);
 }
 
+TEST(Feedback, EarlyToeoffIsCancelledWhenTheGroundComesBack) {
+  // Contact flickers off at 0.25 for 6 ms and returns (a slip): the leg is loaded again, so the early
+  // knee flexion must stop and the scheduled one (0.4) applies.
+  const StepTiming t{0.5, 0.4, 0.9};
+  LegFeedback fb;
+  double phase = 0.0;
+  int eto_after_return = 0, eto_during_gap = 0;
+  for (int tick = 0; tick < 1000; ++tick) {
+    const bool gap = phase >= 0.25 && phase < 0.256;
+    const bool contact = phase < 0.5 && !gap;
+    const auto a = fb.update(phase, contact, 0.002, t);
+    if (tick >= 500) {
+      eto_during_gap += gap && a.activity.early_toeoff;
+      eto_after_return += phase > 0.27 && phase < 0.4 && a.activity.early_toeoff;
+      if (phase > 0.27 && phase < 0.4) EXPECT_LT(a.knee_flex_start, 0.0) << "early flexion still on at " << phase;
+    }
+    phase += 0.002 * a.phase_rate;
+    if (phase >= 1.0) phase -= 1.0;
+  }
+  EXPECT_GT(eto_during_gap, 0);
+  EXPECT_EQ(eto_after_return, 0);
+}
+
+TEST(Feedback, AToeScuffingTheGroundJustAfterToeoffIsNoEarlyTouchdown) {
+  // Lifts off at 0.5, touches again 10 ms later (0.51-0.53): a scuff, below etd_min_airborne_s (40 ms).
+  const Counts scuff = run([](double phi) { return phi < 0.5 || (phi >= 0.51 && phi < 0.53); });
+  EXPECT_EQ(scuff.etd, 0);
+  EXPECT_FALSE(scuff.hip_passive);
+  // The same contact after 100 ms of real flight is an early touchdown.
+  const Counts impact = run([](double phi) { return phi < 0.5 || (phi >= 0.6 && phi < 0.62); });
+  EXPECT_GT(impact.etd, 0);
+}
+
 TEST(Feedback, LateToeoffIsMeasuredAndDeceleratesOnlyWhenConfigured) {
   const auto late = [](double phi) { return phi < 0.6; };  // still on the ground after 0.5
   const Counts measured = run(late);

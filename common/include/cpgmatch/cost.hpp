@@ -12,14 +12,25 @@
 //               flight/stance change, which is 2 per leg and step even for a perfect gait (8 for four
 //               legs), yet it reports 0.03 for good gaits; we therefore count only the changes beyond the
 //               two a clean step has, divided by two: one stumble or drag per step and leg gives 1.
-// J_periodicity |f_pitch - f_cpg| in hertz, f_pitch the peak of the body-pitch spectrum (eqs. 6-7, N = 1).
+// J_periodicity |f_pitch - f_expected| in hertz, f_pitch the peak of the body-pitch spectrum (eqs. 6-7,
+//               N = 1). The paper compares with f_cpg, but body pitch repeats at f_cpg only for gaits whose
+//               front and hind legs alternate (bound, pronk); in a trot, pace or walk both front legs (and
+//               both hind legs) take one step each per cycle half a cycle apart, so a clean gait pitches
+//               at 2 f_cpg (see pitch_harmonic() in cpg.hpp). f_expected = harmonic x f_cpg, so a clean
+//               trot scores ~0 as the paper's good gaits do (0.0 in its Supplementary Table 3).
+//
+// Every term saturates at a cap (CostConfig::caps()) so the cost of any rollout that did not fall is
+// bounded: J_feedback <= 4 (four fractions of time), J_distance <= 1/min_distance_m, J_pitch <= 2 x the
+// fall pitch (pitch beyond it is a fall), J_contact <= contact_cap, J_periodicity <= f_expected (a peak
+// that far off is no periodicity at all). A fall costs that bound plus a margin, so every fall costs more
+// than every rollout that did not fall, standing still included.
 //
 // Normalised torque, eq. (1): sum over legs of (mean |hip torque| + mean |knee torque|) divided by the
 // mean forward speed. Mean *absolute* torque, because the signed mean of an oscillating torque is ~0.
 //
 // A fall (|pitch| or trunk height beyond limits) ends the rollout early and replaces the cost by
-// fall_cost_base + fall_cost_per_lost_fraction * (fraction of the rollout lost), so that a later fall is
-// still a little better than an early one, and any fall is worse than any plausible walking gait.
+// non_fall_bound() + fall_cost_margin + fall_cost_per_lost_fraction * (fraction of the rollout lost), so that
+// a later fall is still a little better than an early one, and any fall is worse than any non-fall.
 #pragma once
 
 #include <array>
@@ -40,11 +51,19 @@ struct CostWeights {
 
 struct CostConfig {
   CostWeights weights;
-  double min_distance_m = 0.05;          // floor on x_body for J_distance
+  // Floor on x_body for J_distance. Below 0.25 m in a 10-s evaluation (2.5 cm/s, a tenth of the paper's
+  // 0.3 m/s) the trunk sways in place rather than walks; all such rollouts are equally "no gait", so
+  // J_distance saturates at 4 1/m instead of growing without bound (0.05 m gave 20 1/m: standing still
+  // then cost more than a fall).
+  double min_distance_m = 0.25;
+  double contact_cap = 2.0;              // J_contact saturates at two extra contact phases per step and leg
   double fall_max_abs_pitch_rad = 0.8;   // about 46 degrees
   double fall_min_height_m = 0.10;       // trunk centre below this is a fall
-  double fall_cost_base = 10.0;
+  double fall_cost_margin = 1.0;         // a fall costs at least this much more than the non-fall bound
   double fall_cost_per_lost_fraction = 5.0;
+
+  // The largest cost a rollout that did not fall can have, for a gait of expected pitch frequency f_pitch.
+  double non_fall_bound(double expected_pitch_hz) const;
 };
 
 struct CostTerms {
@@ -89,11 +108,12 @@ class CostRecorder {
   void add(const CostSample& sample) { samples_.push_back(sample); }
   std::size_t size() const { return samples_.size(); }
 
-  // Evaluates every term over the recorded window. `cpg_frequency_hz` is f in eqs. (2), (5) and (7).
-  CostBreakdown evaluate(double cpg_frequency_hz) const;
+  // Evaluates every term over the recorded window. `cpg_frequency_hz` is f in eqs. (2) and (5);
+  // `expected_pitch_hz` is what eq. (7) compares the pitch peak with (pitch_harmonic x f).
+  CostBreakdown evaluate(double cpg_frequency_hz, double expected_pitch_hz) const;
 
   // The cost of a fall at `fall_time_s` in a rollout of `total_time_s`.
-  double fall_cost(double fall_time_s, double total_time_s) const;
+  double fall_cost(double fall_time_s, double total_time_s, double expected_pitch_hz) const;
 
  private:
   CostConfig config_;
@@ -103,7 +123,7 @@ class CostRecorder {
 // Individual terms on plain inputs, exposed for tests and for offline analysis of hardware logs.
 double pitch_range_term(const std::vector<double>& pitch_rad, double sample_rate_hz, double stride_frequency_hz);
 double dominant_frequency_hz(const std::vector<double>& signal, double sample_rate_hz);
-double periodicity_term(const std::vector<double>& pitch_rad, double sample_rate_hz, double cpg_frequency_hz);
+double periodicity_term(const std::vector<double>& pitch_rad, double sample_rate_hz, double expected_pitch_hz);
 double contact_term(const std::vector<PerLeg<bool>>& contacts, double sample_rate_hz, double cpg_frequency_hz);
 
 }  // namespace cpgmatch

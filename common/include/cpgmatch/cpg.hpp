@@ -59,6 +59,12 @@ class PhaseOscillatorNetwork {
   PerLeg<long> cycles_{};
 };
 
+// How many times per CPG cycle body pitch repeats in a clean gait of this pattern: 2 when shifting the
+// pattern by half a cycle maps every front leg onto a front leg and every hind leg onto a hind leg (trot,
+// pace, walk: each pair steps twice per cycle, so front-hind loading and hence pitch repeat twice),
+// otherwise 1 (bound, pronk). Body pitch is set by front versus hind loading, not by left versus right.
+int pitch_harmonic(const Gait& gait);
+
 // Key phases (cycles) of one leg's step, derived from the parameters.
 struct StepTiming {
   double duty_factor;      // stance ends (nominal toe-off, hip starts to protract)

@@ -4,11 +4,20 @@
 //
 //   late touchdown  (LTD): stance has begun (phi in [0, D)) but the foot has not touched down yet.
 //                          The leg's phase is decelerated until contact ("wait for the ground").
-//   early touchdown (ETD): the foot touches down during swing, after it had lifted off and before
-//                          swing-leg retraction. Triggers a knee pull-up reflex on a fixed trajectory and
-//                          makes the hip motor passive, so the leg springs absorb the impact.
+//   early touchdown (ETD): the foot touches down during swing, after it had been airborne for at least
+//                          etd_min_airborne_s and before swing-leg retraction. Triggers a knee pull-up reflex
+//                          on a fixed trajectory and makes the hip motor passive, so the leg springs absorb
+//                          the impact. The airborne time keeps a toe that scuffs the ground just after toe-off
+//                          (which is a late toe-off, not an impact) from firing the reflex.
 //   early toe-off   (ETO): contact is lost during stance before the knee was scheduled to flex.
-//                          Knee flexion starts at once instead of waiting for the feedforward schedule.
+//                          Knee flexion starts at once instead of waiting for the feedforward schedule. If
+//                          contact returns before the scheduled flexion (the foot slipped or bounced, the leg
+//                          is loaded again) the early flexion is cancelled: flexing a loaded knee buckles it.
+//
+// Against the paper's Fig. 2d (one step cycle in phase, stance [0, D) shaded): LTD is the red segment at the
+// start of stance, ETO the green one inside stance before the knee phase shift, LTO the yellow one after the
+// nominal toe-off, ETD the purple one in swing before the overswing (retraction) begins. Contact is the
+// debounced FootTile signal (see contact_sensor.hpp).
 //   late toe-off    (LTO): the foot is still on the ground after the nominal toe-off (phi >= D) and has
 //                          not lifted since. Always measured; decelerates the phase only if configured.
 //
@@ -30,6 +39,7 @@ struct FeedbackConfig {
   double late_touchdown_phase_rate = 0.1;  // phase speed factor while waiting for touchdown (0..1)
   double late_toeoff_phase_rate = 0.5;     // phase speed factor during LTO, when deceleration is on
   double reflex_duration_s = 0.12;         // knee pull-up reflex length, seconds
+  double etd_min_airborne_s = 0.04;        // swing contact counts as ETD only after this long in the air, s
   double reflex_knee_flexion_rad = 0.5;    // peak extra knee flexion of the reflex, radians
   bool reflex_hip_passive = true;          // hip motor passive while the reflex runs
 
@@ -72,6 +82,9 @@ class LegFeedback {
   double last_phase_ = 0.0;
   bool touched_down_ = false;   // contact seen since this stance window began (or in retraction)
   bool lifted_off_ = false;     // contact lost since the nominal toe-off of this swing
+  bool was_contact_ = true;
+  double airborne_s_ = 0.0;     // time since the foot last left the ground (0 while in contact)
+  double last_flight_s_ = 0.0;  // length of the flight that ended with the latest touchdown
   bool reflex_used_ = false;    // one reflex per swing
   double reflex_time_left_ = 0.0;
   double early_flex_start_ = -1.0;  // phase at which ETO started knee flexion, this cycle

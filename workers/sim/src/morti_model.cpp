@@ -21,6 +21,12 @@ double positive(const YamlReader& r, const std::string& key, double fallback) {
   return v;
 }
 
+double non_negative(const YamlReader& r, const std::string& key, double fallback) {
+  const double v = value_of(r, key, fallback);
+  if (!(v >= 0.0)) r.fail(key, "must be >= 0");
+  return v;
+}
+
 SegmentModel segment(const YamlReader& r, const std::string& key, SegmentModel fallback) {
   if (!r.has(key)) return fallback;
   const YamlReader s = r.child(key);
@@ -41,11 +47,16 @@ SpringModel spring(const YamlReader& r, const std::string& key, SpringModel fall
 MotorModel motor(const YamlReader& r, const std::string& key, MotorModel fallback) {
   if (!r.has(key)) return fallback;
   const YamlReader s = r.child(key);
-  s.reject_unknown_keys({"stall_torque_nm", "no_load_speed_rad_s", "kp_nm_per_rad", "kd_nm_s_per_rad"});
-  return {positive(s, "stall_torque_nm", fallback.stall_torque_nm),
-          positive(s, "no_load_speed_rad_s", fallback.no_load_speed_rad_s),
-          value_of(s, "kp_nm_per_rad", fallback.kp_nm_per_rad),
-          value_of(s, "kd_nm_s_per_rad", fallback.kd_nm_s_per_rad)};
+  s.reject_unknown_keys({"stall_torque_nm", "no_load_speed_rad_s", "kp_nm_per_rad", "kd_nm_s_per_rad",
+                         "coulomb_friction_nm", "viscous_friction_nm_s_per_rad", "reflected_inertia_kg_m2"});
+  MotorModel out{positive(s, "stall_torque_nm", fallback.stall_torque_nm),
+                 positive(s, "no_load_speed_rad_s", fallback.no_load_speed_rad_s),
+                 value_of(s, "kp_nm_per_rad", fallback.kp_nm_per_rad),
+                 value_of(s, "kd_nm_s_per_rad", fallback.kd_nm_s_per_rad),
+                 non_negative(s, "coulomb_friction_nm", fallback.coulomb_friction_nm),
+                 non_negative(s, "viscous_friction_nm_s_per_rad", fallback.viscous_friction_nm_s_per_rad),
+                 non_negative(s, "reflected_inertia_kg_m2", fallback.reflected_inertia_kg_m2)};
+  return out;
 }
 
 }  // namespace
@@ -70,13 +81,15 @@ MortiModel load_morti_model(const std::string& path) {
   if (r.has("leg")) {
     const YamlReader l = r.child("leg");
     l.reject_unknown_keys({"toe_radius_m", "femur_mount_angle_rad", "knee_stand_flexion_rad",
-                           "knee_min_flexion_rad", "knee_max_flexion_rad", "ankle_range_rad"});
+                           "knee_min_flexion_rad", "knee_max_flexion_rad", "ankle_range_rad",
+                           "knee_joint_friction_nm"});
     m.toe_radius_m = positive(l, "toe_radius_m", m.toe_radius_m);
     m.femur_mount_angle_rad = value_of(l, "femur_mount_angle_rad", m.femur_mount_angle_rad);
     m.knee_stand_flexion_rad = positive(l, "knee_stand_flexion_rad", m.knee_stand_flexion_rad);
     m.knee_min_flexion_rad = value_of(l, "knee_min_flexion_rad", m.knee_min_flexion_rad);
     m.knee_max_flexion_rad = positive(l, "knee_max_flexion_rad", m.knee_max_flexion_rad);
     m.ankle_range_rad = positive(l, "ankle_range_rad", m.ankle_range_rad);
+    m.knee_joint_friction_nm = non_negative(l, "knee_joint_friction_nm", m.knee_joint_friction_nm);
     if (m.knee_min_flexion_rad >= m.knee_stand_flexion_rad || m.knee_stand_flexion_rad >= m.knee_max_flexion_rad) {
       l.fail("knee_stand_flexion_rad", "must lie strictly between knee_min_flexion_rad and knee_max_flexion_rad");
     }

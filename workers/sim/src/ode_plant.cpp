@@ -169,6 +169,22 @@ struct OdePlant::Impl {
     return body;
   }
 
+  static void set_dry_friction(dJointID hinge, double torque_nm) {
+    dJointSetHingeParam(hinge, dParamVel, 0.0);
+    dJointSetHingeParam(hinge, dParamFMax, torque_nm);
+  }
+
+  // The hip motor's rotor turns N times faster than the leg, so the leg feels N^2 times its inertia.
+  // Added to the femur's own pitch inertia: exact for the leg swinging relative to a still trunk, and
+  // the trunk's own rotation (N times slower than the rotor's) is a small correction we neglect.
+  static void add_reflected_inertia(dBodyID femur, double inertia_kg_m2) {
+    if (inertia_kg_m2 <= 0.0) return;
+    dMass mass;
+    dBodyGetMass(femur, &mass);
+    mass.I[2 * 4 + 2] += inertia_kg_m2;
+    dBodySetMass(femur, &mass);
+  }
+
   dJointID make_hinge(dBodyID a, dBodyID b, Vec2 anchor) {
     dJointID j = dJointCreateHinge(world, nullptr);
     dJointAttach(j, a, b);
@@ -201,6 +217,7 @@ struct OdePlant::Impl {
       const Vec2 knee{hip.x + model.femur.length_m * df.x, hip.y + model.femur.length_m * df.y};
       const Vec2 ankle{knee.x + model.shank.length_m * ds.x, knee.y + model.shank.length_m * ds.y};
       leg.femur = make_segment(hip, a0, model.femur);
+      add_reflected_inertia(leg.femur, model.hip_motor.reflected_inertia_kg_m2);
       leg.shank = make_segment(knee, a0 - b0, model.shank);
       leg.foot = make_segment(ankle, a0, model.foot);
       leg.hip = make_hinge(trunk, leg.femur, hip);
@@ -209,8 +226,14 @@ struct OdePlant::Impl {
       // Knee hinge angle = -(flexion - b0): stops keep the flexion inside its mechanical range.
       dJointSetHingeParam(leg.knee, dParamLoStop, b0 - model.knee_max_flexion_rad);
       dJointSetHingeParam(leg.knee, dParamHiStop, b0 - model.knee_min_flexion_rad);
-      dJointSetHingeParam(leg.ankle, dParamLoStop, -model.ankle_range_rad - 1.5);
-      dJointSetHingeParam(leg.ankle, dParamHiStop, model.ankle_range_rad + 1.5);
+      // The parallel mechanism's end stops: the foot turns at most ankle_range_rad either way from its
+      // standing pose relative to the shank.
+      dJointSetHingeParam(leg.ankle, dParamLoStop, -model.ankle_range_rad);
+      dJointSetHingeParam(leg.ankle, dParamHiStop, model.ankle_range_rad);
+      // Dry friction as ODE's velocity-zero joint motor with a force limit: implicit, so it holds a joint
+      // at rest without the chatter an explicit sign(speed) torque would give.
+      set_dry_friction(leg.hip, model.hip_motor.coulomb_friction_nm);
+      set_dry_friction(leg.knee, model.knee_joint_friction_nm);
       leg.toe = dCreateSphere(nullptr, model.toe_radius_m);
       dGeomSetBody(leg.toe, leg.foot);
       dGeomSetOffsetPosition(leg.toe, 0.0, -0.5 * model.foot.length_m, 0.0);
@@ -235,7 +258,9 @@ struct OdePlant::Impl {
         const auto& m = model.hip_motor;
         tau_hip = limit_torque(m.kp_nm_per_rad * (cmd.hip_angle_rad - q) - m.kd_nm_s_per_rad * qd, qd, m);
       }
-      dJointAddHingeTorque(leg.hip, tau_hip);
+      // Viscous gearbox drag acts whether the motor drives or is back-driven (passive hip).
+      const double drag = -model.hip_motor.viscous_friction_nm_s_per_rad * qd;
+      dJointAddHingeTorque(leg.hip, tau_hip + drag);
       leg.hip_torque = tau_hip;
 
       // Knee: the motor positions the rest angle of the series knee spring. Its output moves at most at

@@ -20,6 +20,10 @@ struct MotorModel {
   double no_load_speed_rad_s = 12.0; // speed at which the available torque reaches zero
   double kp_nm_per_rad = 40.0;       // position gain (hip: torque PD; knee: see knee_motor_bandwidth)
   double kd_nm_s_per_rad = 0.6;      // damping gain of the hip PD
+  // The gearbox as seen at the joint, active or passive: a geared motor is never a free hinge.
+  double coulomb_friction_nm = 0.0;           // dry friction of gears and bearings, N m
+  double viscous_friction_nm_s_per_rad = 0.0; // viscous drag, N m s/rad
+  double reflected_inertia_kg_m2 = 0.0;       // rotor inertia times gear ratio squared, about the joint
 };
 
 struct SpringModel {
@@ -47,7 +51,8 @@ struct MortiModel {
   double knee_stand_flexion_rad = 1.0;  // knee flexion at knee target 0
   double knee_min_flexion_rad = 0.2;
   double knee_max_flexion_rad = 2.4;
-  double ankle_range_rad = 1.2;         // foot may deviate this much from parallel-to-femur
+  double ankle_range_rad = 1.2;         // ankle (foot vs shank) stops, +- this from the standing pose
+  double knee_joint_friction_nm = 0.0;  // dry friction of the knee bearing, N m
   SpringModel knee_spring{15.0, 0.05};
   SpringModel biarticular_spring{4.0, 0.01};
   MotorModel hip_motor{4.0, 12.0, 40.0, 0.6};
