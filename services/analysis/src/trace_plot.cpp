@@ -118,8 +118,9 @@ FigureFiles plot_trace(const fs::path& trace_csv, const fs::path& out_dir, doubl
   };
   const std::string d = gnuplot_quote(data);
   const std::string stance = stance_objects(t, static_cast<std::size_t>(col("FL_contact") - 1));
+  const double shown_s = t.rows.back()[0] - t.rows.front()[0];  // the trace may be shorter than the window
   std::string body = "set multiplot layout 4,1 title 'Fig. 4: CPG output and elastic feedback (last "
-                     + fmt::format("{:.0f}", window_s) + " s of the rollout; grey: FL stance)'\n"
+                     + fmt::format("{:.1f}", shown_s) + " s of the rollout; grey: FL stance)'\n"
                      "set grid\nset key outside right\nset lmargin 10\nset rmargin 24\n";
   body += "set ylabel 'phase'\nplot ";
   for (std::size_t i = 0; i < kLegs.size(); ++i) {

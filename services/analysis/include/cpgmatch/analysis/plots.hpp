@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <vector>
 
+#include "cpgmatch/analysis/gnuplot.hpp"
 #include "cpgmatch/analysis/replicates.hpp"
 #include "cpgmatch/analysis/trial.hpp"
 
@@ -18,8 +19,8 @@ FigureFiles plot_study(const StudyTrials& study, const std::filesystem::path& ou
 
 // Fig. 4 from a rollout trace CSV (`cpgmatch rollout --trace`): the four legs' coupled phases, FL's hip
 // and knee trajectories with stance shaded, and the four feedback activities of FL and FR as bands,
-// over the last `window_s` seconds of the trace. fig4.png/.svg. Throws PlotError, InputError-like
-// std::runtime_error for a trace without the needed columns.
+// over the last `window_s` seconds of the trace. fig4.png/.svg. Throws PlotError when gnuplot fails,
+// plain std::runtime_error for a file that is not such a trace (no such file, columns missing).
 FigureFiles plot_trace(const std::filesystem::path& trace_csv, const std::filesystem::path& out_dir,
                        double window_s = 4.0);
 
