@@ -118,5 +118,16 @@ if command -v gnuplot >/dev/null; then
   check "plot --trace figure" sh -c "head -c 4 '$tmp/figs/fig4.png' | grep -q PNG && grep -q '<svg' '$tmp/figs/fig4.svg'"
 fi
 
+# reproduce: two tiny replicates through the service, aggregated as mean ± sd.
+"$bin" reproduce --seeds 2 --config "$tmp/tiny.yaml" --workers 2 --out "$tmp/rep" --jitter 0 --quiet >"$tmp/rep.txt" 2>"$tmp/rep.err"
+check "reproduce replicates.json" python3 -c "
+import json; r=json.load(open('$tmp/rep/replicates.json')); s=r['statistics']
+assert r['replicates']==2 and s['rollouts']['n']==2 and s['rollouts']['mean']==6, s['rollouts']
+assert s['falls.total']['paper']==16 and len(r['reports'])==2"
+check "reproduce seeds differ" python3 -c "
+import json; r=json.load(open('$tmp/rep/replicates.json'))
+assert [x['name'] for x in r['reports']]==['tiny-seed-1','tiny-seed-2'], [x['name'] for x in r['reports']]"
+check "reproduce table" grep -q "mean ± sd" "$tmp/rep.txt"
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
