@@ -84,7 +84,8 @@ std::string fig6(const StudyTrials& s, const fs::path& data) {
   }
   return fmt::format(
       "set datafile missing 'NaN'\nset grid\nset key top left\n"
-      "set title 'Fig. 6: normalised torque of rollouts sorted by cost (shaded: falls, no torque)'\n"
+      "set logscale y\n"  // torques of bad gaits are orders of magnitude above good ones
+      "set title 'Fig. 6: normalised torque of rollouts sorted by cost (log scale; shaded: falls, no torque)'\n"
       "set xlabel 'rollouts sorted by cost (1 = best)'\nset ylabel 'normalised torque, N m / (m/s)'\n"
       "{}plot {} u 1:4 w p pt 7 ps 0.6 lc rgb '#1f77b4' t 'normalised torque (eq. 1)', "
       "'' u 1:4 smooth bezier lw 2 lc rgb 'black' t 'trend', "
