@@ -81,10 +81,53 @@ check "run-one with a bad request" expect_exit 2 "request" sh -c "echo '{\"param
 
 # A small local study runs end to end and writes its results.
 printf 'name: tiny\nbudget: 6\ninitial_points: 4\nrollout: {entrain_s: 1.0, eval_s: 1.0}\n' >"$tmp/tiny.yaml"
-"$bin" study run --config "$tmp/tiny.yaml" --workers 2 --out "$tmp/tiny" --quiet --json >"$tmp/study.json"
-check "study summary" python3 -c "
-import json; s=json.load(open('$tmp/study.json')); assert s['rollouts']==6 and 'best_cost' in s, s"
+"$bin" study run --config "$tmp/tiny.yaml" --workers 2 --out "$tmp/tiny" --quiet --json --jitter 2 >"$tmp/study.json" 2>"$tmp/study.err"
+check "study science report" python3 -c "
+import json; s=json.load(open('$tmp/study.json')); assert s['rollouts']==6 and s['best']['cost'] is not None, s
+assert s['jitter']['draws']==2, s['jitter']"
 check "study trials file" test "$(wc -l <"$tmp/tiny/trials.jsonl")" -eq 6
+check "study writes analysis.json" test -s "$tmp/tiny/analysis.json"
+if command -v gnuplot >/dev/null; then
+  check "study figures" test -s "$tmp/tiny/fig5a.png" -a -s "$tmp/tiny/fig5b.svg" -a -s "$tmp/tiny/fig6.png" -a -s "$tmp/tiny/fig4.png"
+  check "no gnuplot failure" sh -c "! grep -q 'gnuplot failed' '$tmp/study.err'"
+fi
+
+# analyze: the science report of the store just written, with the window statistics.
+"$bin" analyze --store "$tmp/tiny/study.db" --json --jitter 0 >"$tmp/an.json"
+check "analyze json windows" python3 -c "
+import json; r=json.load(open('$tmp/an.json'))
+w=r['windows'][0]
+assert (w['first'], w['last'], w['rollouts']) == (1, 6, 6), w
+assert {'falls','walked','feedback_mean','feedback_median','normalized_torque_median','summed_torque_median_nm','speed_mean_mps'} <= set(w), w
+assert r['falls']['initial'] + r['falls']['after'] == r['falls']['total']
+assert r['paper']['falls']['total'] == 16 and r['jitter'] is None"
+check "analyze prints one line" test "$(wc -l <"$tmp/an.json")" -eq 1
+"$bin" analyze --store "$tmp/tiny/study.db" --study 1 --jitter 0 >"$tmp/an.txt"
+check "analyze table beside the paper" grep -q "J_feedback vs speed-corrected torque residual" "$tmp/an.txt"
+check "analyze unknown study" expect_exit 2 "\-\-study 999" "$bin" analyze --store "$tmp/tiny/study.db" --study 999
+check "analyze missing store" expect_exit 2 "\-\-store" "$bin" analyze --store "$tmp/nope.db"
+check "analyze bad jitter" expect_exit 2 "\-\-jitter" "$bin" analyze --store "$tmp/tiny/study.db" --jitter -1
+check "plot needs one source" expect_exit 2 "\-\-store" "$bin" plot
+check "plot unknown study" expect_exit 2 "\-\-study 999" "$bin" plot --store "$tmp/tiny/study.db" --study 999
+check "plot not a trace" expect_exit 2 "\-\-trace" "$bin" plot --trace "$tmp/tiny/trials.jsonl"
+check "reproduce bad seeds" expect_exit 2 "\-\-seeds" "$bin" reproduce --seeds 0
+if command -v gnuplot >/dev/null; then
+  "$bin" plot --store "$tmp/tiny/study.db" --out "$tmp/figs" >"$tmp/plot.out"
+  check "plot --store figures" test -s "$tmp/figs/fig5a.png" -a -s "$tmp/figs/fig6.svg"
+  "$bin" plot --trace "$tmp/t.csv" --out "$tmp/figs" >>"$tmp/plot.out"
+  check "plot --trace figure" sh -c "head -c 4 '$tmp/figs/fig4.png' | grep -q PNG && grep -q '<svg' '$tmp/figs/fig4.svg'"
+fi
+
+# reproduce: two tiny replicates through the service, aggregated as mean ± sd.
+"$bin" reproduce --seeds 2 --config "$tmp/tiny.yaml" --workers 2 --out "$tmp/rep" --jitter 0 --quiet >"$tmp/rep.txt" 2>"$tmp/rep.err"
+check "reproduce replicates.json" python3 -c "
+import json; r=json.load(open('$tmp/rep/replicates.json')); s=r['statistics']
+assert r['replicates']==2 and s['rollouts']['n']==2 and s['rollouts']['mean']==6, s['rollouts']
+assert s['falls.total']['paper']==16 and len(r['reports'])==2"
+check "reproduce seeds differ" python3 -c "
+import json; r=json.load(open('$tmp/rep/replicates.json'))
+assert [x['name'] for x in r['reports']]==['tiny-seed-1','tiny-seed-2'], [x['name'] for x in r['reports']]"
+check "reproduce table" grep -q "mean ± sd" "$tmp/rep.txt"
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -20,6 +20,10 @@ void add_study_command(CLI::App& app);
 // study submit/pause/resume/stop (under `study`), and status, watch, workers: clients of the service.
 void add_study_service_commands(CLI::App* study);
 void add_service_commands(CLI::App& app);
+// The science of finished studies: analyze (report beside the paper), plot (figures), reproduce (N seeds).
+void add_analyze_command(CLI::App& app);
+void add_plot_command(CLI::App& app);
+void add_reproduce_command(CLI::App& app);
 
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,

@@ -14,6 +14,9 @@ int main(int argc, char** argv) {
   cpgmatch::cli::add_eval_rollout_command(app);
   cpgmatch::cli::add_study_command(app);
   cpgmatch::cli::add_service_commands(app);
+  cpgmatch::cli::add_analyze_command(app);
+  cpgmatch::cli::add_plot_command(app);
+  cpgmatch::cli::add_reproduce_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,33 @@
+// N replicates of one study (different seeds): every scalar statistic of their science reports as
+// mean ± sd, beside the paper's single run. One run of a stochastic optimiser is an anecdote; the
+// spread across seeds says whether a difference from the paper means anything.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace cpgmatch::analysis {
+
+struct ReplicateStat {
+  int n = 0;          // replicates in which the statistic could be computed
+  double mean = 0.0;
+  double sd = 0.0;    // sample sd; NaN for n < 2
+};
+
+struct ReplicateSummary {
+  int replicates = 0;
+  std::map<std::string, ReplicateStat> stats;  // by dotted path into to_json(ScienceReport)
+  std::vector<nlohmann::json> reports;         // the inputs, for the table's row list and the plots
+};
+
+// `reports` are to_json(ScienceReport) objects. Identifiers (study_id) and the paper's values are not
+// statistics and are left out.
+ReplicateSummary aggregate_replicates(const std::vector<nlohmann::json>& reports);
+
+nlohmann::json to_json(const ReplicateSummary& s);
+std::string format_table(const ReplicateSummary& s);
+
+}  // namespace cpgmatch::analysis

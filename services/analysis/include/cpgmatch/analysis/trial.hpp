@@ -1,0 +1,56 @@
+// A study as the analysis sees it: its rollouts in trial order, each with the report's numbers, plus
+// the search space's bounds (for the jitter test). Built from the SQLite store by
+// cpgmatch_analysis_store, or by hand in tests.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace cpgmatch::analysis {
+
+struct CostTerms {  // eqs. 2-7 of the paper, as the rollout report carries them
+  double feedback = 0.0;
+  double distance = 0.0;
+  double pitch = 0.0;
+  double contact = 0.0;
+  double periodicity = 0.0;
+};
+
+struct Trial {
+  int trial_id = 0;                // 0-based, the store's order; "rollout k" in the report is trial_id + 1
+  bool ok = false;                 // the rollout ran (a fall is ok); false: the evaluation failed
+  bool fell = false;
+  double cost = 0.0;
+  CostTerms terms;
+  double normalized_torque = 0.0;  // eq. 1, N m / (m/s)
+  double summed_torque_nm = 0.0;   // eq. 1's numerator, N m
+  double mean_speed_mps = 0.0;
+  double distance_m = 0.0;
+  std::map<std::string, double> params;  // every parameter of the rollout (optimised and fixed)
+
+  bool walked() const { return ok && !fell; }
+};
+
+struct Bounds {
+  double low = 0.0;
+  double high = 0.0;
+};
+
+struct StudyTrials {
+  std::string name;
+  int study_id = 0;
+  int initial_points = 15;         // the random initial design
+  std::uint64_t seed = 0;          // the study's seed (its rollouts' seed too)
+  std::map<std::string, Bounds> bounds;  // the optimised parameters and their search ranges
+  std::vector<Trial> trials;       // ordered by trial_id
+};
+
+// One rollout report (to_json(RolloutReport) in idl/transport) as a Trial. Old stores have no
+// `summed_torque_nm` (or null): it is rebuilt as normalized_torque x mean_speed_mps.
+Trial trial_from_report(int trial_id, const nlohmann::json& report, std::map<std::string, double> params);
+
+}  // namespace cpgmatch::analysis

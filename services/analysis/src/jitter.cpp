@@ -1,0 +1,48 @@
+#include "cpgmatch/analysis/jitter.hpp"
+
+#include <algorithm>
+#include <random>
+
+#include "cpgmatch/analysis/statistics.hpp"
+
+namespace cpgmatch::analysis {
+
+std::vector<std::map<std::string, double>> jittered_points(const std::map<std::string, double>& params,
+                                                           const std::map<std::string, Bounds>& bounds,
+                                                           const JitterOptions& options) {
+  std::mt19937_64 rng(options.jitter_seed);
+  std::uniform_real_distribution<double> factor(1.0 - options.relative, 1.0 + options.relative);
+  std::vector<std::map<std::string, double>> points;
+  for (int i = 0; i < options.draws; ++i) {
+    std::map<std::string, double> p = params;
+    // Iterating `bounds` (a sorted map) fixes the order of draws, so a seed always means the same points.
+    for (const auto& [name, range] : bounds) {
+      auto it = p.find(name);
+      if (it == p.end()) continue;
+      it->second = std::clamp(it->second * factor(rng), range.low, range.high);
+    }
+    points.push_back(std::move(p));
+  }
+  return points;
+}
+
+JitterSummary jitter_best(const std::map<std::string, double>& params, const std::map<std::string, Bounds>& bounds,
+                          const RolloutEvaluator& evaluate, const JitterOptions& options) {
+  JitterSummary s;
+  s.relative = options.relative;
+  for (const auto& point : jittered_points(params, bounds, options)) {
+    ++s.draws;
+    const RolloutOutcome o = evaluate(point, options.rollout_seed);
+    if (!o.ok) {
+      ++s.failed;
+      continue;
+    }
+    if (o.fell) ++s.falls;
+    s.costs.push_back(o.cost);
+  }
+  s.cost_mean = mean(s.costs);
+  s.cost_sd = sample_sd(s.costs);
+  return s;
+}
+
+}  // namespace cpgmatch::analysis

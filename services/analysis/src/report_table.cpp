@@ -1,0 +1,113 @@
+#include <fmt/format.h>
+
+#include "cpgmatch/analysis/json_path.hpp"
+#include "cpgmatch/analysis/paper_values.hpp"
+#include "cpgmatch/analysis/report_rows.hpp"
+#include "cpgmatch/analysis/science_report.hpp"
+
+namespace cpgmatch::analysis {
+
+std::vector<TableRow> report_rows(const nlohmann::json& report) {
+  std::vector<TableRow> rows = {
+      {"falls", "", 0},
+      {"falls, all rollouts", "falls.total", 0},
+      {"falls in the initial design", "falls.initial", 0},
+      {"falls after it", "falls.after", 0},
+      {"failed evaluations (did not run)", "failed_evaluations", 0},
+  };
+  const auto& windows = report.value("windows", nlohmann::json::array());
+  for (std::size_t i = 0; i < windows.size(); ++i) {
+    const std::string w = fmt::format("windows.{}.", i);
+    rows.push_back({fmt::format("rollouts {}-{} (non-fallen for all but falls)", windows[i]["first"].get<int>(),
+                                windows[i]["last"].get<int>()),
+                    "", 0});
+    rows.push_back({"  rollouts", w + "rollouts", 0});
+    rows.push_back({"  falls", w + "falls", 0});
+    rows.push_back({"  J_feedback mean", w + "feedback_mean", 3});
+    rows.push_back({"  J_feedback median", w + "feedback_median", 3});
+    rows.push_back({"  normalised torque median, N m/(m/s)", w + "normalized_torque_median", 2});
+    rows.push_back({"  summed torque median, N m", w + "summed_torque_median_nm", 3});
+    rows.push_back({"  mean speed, m/s", w + "speed_mean_mps", 3});
+  }
+  const std::vector<TableRow> rest = {
+      {"learning: last rollouts vs initial design (non-fallen)", "", 0},
+      {"  J_feedback mean, initial", "learning.feedback_initial_mean", 3},
+      {"  J_feedback mean, last", "learning.feedback_late_mean", 3},
+      {"  J_feedback ratio last / initial", "learning.feedback_ratio", 3},
+      {"  normalised torque median, initial", "learning.torque_initial_median", 2},
+      {"  normalised torque median, last", "learning.torque_late_median", 2},
+      {"  normalised torque ratio last / initial", "learning.torque_ratio", 3},
+      {"costs (rollouts that ran)", "", 0},
+      {"  mean", "cost.mean", 3},
+      {"  sd", "cost.sd", 3},
+      {"  median", "cost.median", 3},
+      {"  worst", "cost.worst", 3},
+      {"  worst rollout", "cost.worst_rollout", 0},
+      {"normalised torque (non-fallen), N m/(m/s)", "", 0},
+      {"  mean", "normalized_torque.mean", 2},
+      {"  sd", "normalized_torque.sd", 2},
+      {"  median", "normalized_torque.median", 2},
+      {"best rollout", "", 0},
+      {"  rollout", "best.rollout", 0},
+      {"  cost", "best.cost", 3},
+      {"  J_feedback", "best.terms.feedback", 3},
+      {"  J_distance", "best.terms.distance", 3},
+      {"  J_pitch", "best.terms.pitch", 3},
+      {"  J_contact", "best.terms.contact", 3},
+      {"  J_periodicity", "best.terms.periodicity", 3},
+      {"  speed, m/s", "best.speed_mps", 3},
+      {"  normalised torque", "best.normalized_torque", 2},
+      {"Spearman rho over non-fallen rollouts", "", 0},
+      {"  J_feedback vs normalised torque", "correlations.feedback_vs_torque", 3},
+      {"  J_feedback vs speed-corrected torque residual", "correlations.feedback_vs_torque_residual", 3},
+      {"  J_feedback vs summed torque", "correlations.feedback_vs_summed_torque", 3},
+      {"  fitted exponent of torque ~ speed^b", "correlations.torque_speed_exponent", 3},
+      {"J_contact, J_periodicity < 0.1 (J_feedback + J_distance)", "", 0},
+      {"  fraction, J_contact", "small_terms.contact", 3},
+      {"  fraction, J_periodicity", "small_terms.periodicity", 3},
+      {"  fraction, both", "small_terms.both", 3},
+  };
+  rows.insert(rows.end(), rest.begin(), rest.end());
+  if (report.contains("jitter") && report["jitter"].is_object()) {
+    rows.push_back({fmt::format("best parameters under +-{:.0f}% jitter", 100 * report["jitter"]["relative"].get<double>()),
+                    "", 0});
+    rows.push_back({"  draws", "jitter.draws", 0});
+    rows.push_back({"  falls", "jitter.falls", 0});
+    rows.push_back({"  cost mean", "jitter.cost_mean", 3});
+    rows.push_back({"  cost sd", "jitter.cost_sd", 3});
+  }
+  return rows;
+}
+
+std::string format_value(const nlohmann::json& v, int decimals) {
+  if (v.is_null()) return "-";
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
+  if (v.is_number_integer()) return std::to_string(v.get<long long>());
+  return fmt::format("{:.{}f}", v.get<double>(), decimals);
+}
+
+std::string format_table(const ScienceReport& r) {
+  const nlohmann::json j = to_json(r);
+  std::string out = fmt::format("study '{}' (id {}): {} rollouts, {} in the random initial design\n", r.name,
+                                r.study_id, r.rollouts, r.initial_points);
+  out += fmt::format("{:<56} {:>12}  {}\n", "statistic", "this study", "paper (Ruppert & Badri-Sproewitz 2022)");
+  for (const auto& row : report_rows(j)) {
+    if (row.path.empty()) {
+      out += row.label + "\n";
+      continue;
+    }
+    // Window rows have no paper counterpart of their own; the paper's falls split is printed with falls.
+    const nlohmann::json paper = paper_value(row.path);
+    out += fmt::format("{:<56} {:>12}  {}\n", row.label, format_value(json_at(j, row.path), row.decimals),
+                       paper.is_null() ? "" : format_value(paper, row.decimals));
+  }
+  if (!r.best_params.empty()) {
+    out += "best parameters:";
+    for (const auto& [k, v] : r.best_params) out += fmt::format(" {}={:.4f}", k, v);
+    out += "\n";
+  }
+  return out;
+}
+
+}  // namespace cpgmatch::analysis

@@ -1,0 +1,151 @@
+// Fig. 4 of the paper from a rollout trace (the CSV `cpgmatch rollout --trace` writes; its columns are
+// made in common/src/rollout.cpp, make_csv_trace).
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/analysis/gnuplot.hpp"
+#include "cpgmatch/analysis/plots.hpp"
+
+namespace cpgmatch::analysis {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::vector<std::string> kLegs = {"FL", "FR", "HL", "HR"};
+const std::vector<std::string> kMechanisms = {"ltd", "etd", "eto", "lto"};
+const std::vector<std::string> kMechanismNames = {"late touchdown", "early touchdown", "early toe-off", "late toe-off"};
+// The paper's colour code (Fig. 4, Supplementary Fig. 2): LTD red, ETD purple, ETO green, LTO yellow.
+const std::vector<std::string> kMechanismColours = {"#d62728", "#9467bd", "#2ca02c", "#e6b800"};
+constexpr std::size_t kMaxRows = 4000;  // plenty for a few seconds of gait; keeps the SVG small
+
+struct Trace {
+  std::vector<std::string> columns;  // the ones Fig. 4 needs, in this order
+  std::vector<std::vector<double>> rows;
+};
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  for (std::string cell; std::getline(ss, cell, ',');) out.push_back(cell);
+  return out;
+}
+
+std::vector<std::string> needed_columns() {
+  std::vector<std::string> c = {"time_s"};
+  for (const auto& leg : kLegs) c.push_back(leg + "_phase");
+  for (const char* q : {"FL_hip_target_rad", "FL_hip_rad", "FL_knee_target_rad", "FL_knee_rad", "FL_contact"}) c.push_back(q);
+  for (const char* leg : {"FL", "FR"}) {
+    for (const auto& m : kMechanisms) c.push_back(fmt::format("{}_{}", leg, m));
+  }
+  return c;
+}
+
+Trace read_trace(const fs::path& csv, double window_s) {
+  std::ifstream in(csv);
+  if (!in) throw std::runtime_error(fmt::format("{}: cannot open the trace", csv.string()));
+  std::string line;
+  if (!std::getline(in, line)) throw std::runtime_error(fmt::format("{}: empty trace", csv.string()));
+  const auto header = split(line);
+  Trace t;
+  t.columns = needed_columns();
+  std::vector<std::size_t> index;
+  for (const auto& name : t.columns) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    if (it == header.end()) {
+      throw std::runtime_error(fmt::format("{}: no column '{}' (not a `cpgmatch rollout --trace` file?)", csv.string(), name));
+    }
+    index.push_back(static_cast<std::size_t>(it - header.begin()));
+  }
+  std::vector<std::vector<double>> all;
+  while (std::getline(in, line)) {
+    const auto cells = split(line);
+    std::vector<double> row;
+    for (std::size_t i : index) row.push_back(i < cells.size() ? std::strtod(cells[i].c_str(), nullptr) : std::nan(""));
+    all.push_back(std::move(row));
+  }
+  if (all.empty()) throw std::runtime_error(fmt::format("{}: the trace has no samples", csv.string()));
+  const double start = all.back()[0] - window_s;
+  std::vector<std::vector<double>> window;
+  for (auto& r : all) {
+    if (r[0] >= start) window.push_back(std::move(r));
+  }
+  const std::size_t stride = std::max<std::size_t>(1, window.size() / kMaxRows);
+  for (std::size_t i = 0; i < window.size(); i += stride) t.rows.push_back(window[i]);
+  return t;
+}
+
+// Shaded rectangles over every interval in which column `col` is 1 (stance: foot in contact).
+std::string stance_objects(const Trace& t, std::size_t col) {
+  std::string out;
+  double begin = std::nan("");
+  for (std::size_t i = 0; i < t.rows.size(); ++i) {
+    const bool on = t.rows[i][col] > 0.5;
+    if (on && std::isnan(begin)) begin = t.rows[i][0];
+    if ((!on || i + 1 == t.rows.size()) && !std::isnan(begin)) {
+      out += fmt::format("set object rect from {:.4f},graph 0 to {:.4f},graph 1 fc rgb '#e8e8e8' fs solid 1.0 noborder behind\n",
+                         begin, t.rows[i][0]);
+      begin = std::nan("");
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+FigureFiles plot_trace(const fs::path& trace_csv, const fs::path& out_dir, double window_s) {
+  const Trace t = read_trace(trace_csv, window_s);
+  const fs::path dir = fs::absolute(out_dir);
+  fs::create_directories(dir);
+  const fs::path data = dir / "fig4.dat";
+  {
+    std::ofstream out(data);
+    out << "#";
+    for (const auto& c : t.columns) out << ' ' << c;
+    out << '\n';
+    for (const auto& r : t.rows) {
+      for (std::size_t i = 0; i < r.size(); ++i) out << (i ? " " : "") << fmt::format("{:.5g}", r[i]);
+      out << '\n';
+    }
+  }
+  auto col = [&](const std::string& name) {
+    return static_cast<int>(std::find(t.columns.begin(), t.columns.end(), name) - t.columns.begin()) + 1;
+  };
+  const std::string d = gnuplot_quote(data);
+  const std::string stance = stance_objects(t, static_cast<std::size_t>(col("FL_contact") - 1));
+  const double shown_s = t.rows.back()[0] - t.rows.front()[0];  // the trace may be shorter than the window
+  std::string body = "set multiplot layout 4,1 title 'Fig. 4: CPG output and elastic feedback (last "
+                     + fmt::format("{:.1f}", shown_s) + " s of the rollout; grey: FL stance)'\n"
+                     "set grid\nset key outside right\nset lmargin 10\nset rmargin 24\n";
+  body += "set ylabel 'phase'\nplot ";
+  for (std::size_t i = 0; i < kLegs.size(); ++i) {
+    body += fmt::format("{}{} u 1:{} w l lw 1.5 t '{}'", i ? ", " : "", i ? "''" : d, col(kLegs[i] + "_phase"), kLegs[i]);
+  }
+  body += "\n" + stance;
+  body += fmt::format("set ylabel 'FL hip, rad'\nplot {} u 1:{} w l lw 1.5 dt 2 t 'target', '' u 1:{} w l lw 1.5 t 'measured'\n", d,
+                      col("FL_hip_target_rad"), col("FL_hip_rad"));
+  body += fmt::format("set ylabel 'FL knee, rad'\nplot {} u 1:{} w l lw 1.5 dt 2 t 'target', '' u 1:{} w l lw 1.5 t 'measured'\n", d,
+                      col("FL_knee_target_rad"), col("FL_knee_rad"));
+  body += "unset object\nset ylabel 'feedback'\nset xlabel 'time, s'\nset yrange [0.3:8.7]\n"
+          "set ytics ('FR LTO' 1, 'FR ETO' 2, 'FR ETD' 3, 'FR LTD' 4, 'FL LTO' 5, 'FL ETO' 6, 'FL ETD' 7, 'FL LTD' 8)\nplot ";
+  int band = 8;
+  bool first = true;
+  for (const char* leg : {"FL", "FR"}) {
+    for (std::size_t m = 0; m < kMechanisms.size(); ++m, --band) {
+      // A line through the samples where the mechanism is active, broken (1/0) where it is not: a band.
+      body += fmt::format("{}{} u 1:(${}>0.5?{}:1/0) w l lw 10 lc rgb '{}' t '{}'", first ? "" : ", ", first ? d : "''",
+                          col(fmt::format("{}_{}", leg, kMechanisms[m])), band, kMechanismColours[m],
+                          std::string(leg) == "FL" ? kMechanismNames[m] : "");
+      first = false;
+    }
+  }
+  body += "\n";
+  return render_figure(dir, "fig4", body, 1000, 1000);
+}
+
+}  // namespace cpgmatch::analysis

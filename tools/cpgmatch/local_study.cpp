@@ -1,0 +1,172 @@
+#include "local_study.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "child_process.hpp"
+#include "cpgmatch/command_objective.hpp"
+#include "cpgmatch/dds/domain.hpp"
+#include "cpgmatch/errors.hpp"
+#include "service_flags.hpp"
+#include "study_client.hpp"
+
+namespace cpgmatch::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+class ProgressBar {
+ public:
+  ProgressBar(int total, bool quiet, std::string label)
+      : total_(total), quiet_(quiet), tty_(isatty(STDERR_FILENO)), label_(std::move(label)) {}
+  void update(int done, double best, double elapsed) {
+    if (quiet_) return;
+    const double rate = elapsed > 0 ? done / elapsed : 0.0;
+    const double eta = rate > 0 ? (total_ - done) / rate : 0.0;
+    const int width = 30, filled = total_ > 0 ? width * done / total_ : width;
+    std::string bar(filled, '#');
+    bar += std::string(width - filled, '.');
+    fmt::print(stderr, "{}{}[{}] {:>4}/{} best {:<9.4g} {:5.2f} rollouts/s  elapsed {:5.1f}s  eta {:5.1f}s{}",
+               tty_ ? "\r" : "", label_, bar, done, total_, best, rate, elapsed, eta, tty_ ? "" : "\n");
+    if (tty_ && done == total_) fmt::print(stderr, "\n");
+  }
+
+ private:
+  int total_;
+  bool quiet_;
+  bool tty_;
+  std::string label_;
+};
+
+// A domain id of this run's own, so that two local studies on one machine do not meet.
+int private_domain() { return 150 + static_cast<int>(getpid() % 80); }
+
+volatile std::sig_atomic_t g_interrupted = 0;
+
+}  // namespace
+
+LocalStudyOptions paper_study_options() {
+  LocalStudyOptions o;
+  o.config_text = "# the paper's study: every key but the name has the paper's value\nname: paper-study\n";
+  o.config_source = "embedded paper study";
+  return o;
+}
+
+LocalStudyOptions study_file_options(const std::string& path) {
+  (void)study::load_study_config(path);  // fails here, naming file:line, before anything starts
+  LocalStudyOptions o;
+  std::ifstream in(path);
+  o.config_text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  o.config_source = path;
+  return o;
+}
+
+LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
+  LocalStudyResult result;
+  const study::StudyConfig cfg = study::load_study_config_text(opts.config_text, opts.config_source);
+  result.config = cfg;
+  if (opts.workers < 0) throw InputError("--workers must be >= 1");
+  const int workers = opts.workers > 0 ? opts.workers : std::max(1u, std::thread::hardware_concurrency());
+  result.workers = workers;
+  const int domain = opts.domain >= 0 ? opts.domain : private_domain();
+  dds::validate_domain(domain);
+  const auto stamp = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y%m%d-%H%M%S", std::localtime(&stamp));
+  const fs::path dir = opts.out.empty() ? fs::path("results") / fmt::format("{}-{}", cfg.name, buf) : opts.out;
+  fs::create_directories(dir);
+  result.dir = dir;
+  const std::string store = opts.store.empty() ? (dir / "study.db").string() : opts.store;
+  result.store = store;
+
+  if (!opts.quiet) {
+    fmt::print(stderr, "{}study '{}': {} rollouts ({} random, then {}), {} parameters, {:.0f} s + {:.0f} s each\n",
+               opts.progress_label, cfg.name, cfg.budget, cfg.optimizer.initial_points,
+               bo::to_string(cfg.optimizer.acquisition), cfg.space.size(), cfg.entrain_s, cfg.eval_s);
+    fmt::print(stderr, "{}optimizer service + {} simulation workers on private DDS domain {}; logs in {}\n",
+               opts.progress_label, workers, domain, dir.string());
+  }
+  const fs::path bin = fs::path(self_executable()).parent_path();
+  const std::string d = std::to_string(domain);
+  std::vector<std::unique_ptr<ChildProcess>> children;
+  children.push_back(std::make_unique<ChildProcess>(
+      std::vector<std::string>{(bin / "cpgmatch-optimizer").string(), "--domain", d, "--store", store,
+                               "--localhost-only", "--log-level", "warn"},
+      (dir / "optimizer.log").string()));
+  for (int i = 0; i < workers; ++i) {
+    children.push_back(std::make_unique<ChildProcess>(
+        std::vector<std::string>{(bin / "cpgmatch-sim-worker").string(), "--domain", d, "--slots", "1", "--id",
+                                 fmt::format("local-{}-{}", getpid(), i), "--localhost-only", "--log-level", "warn"},
+        (dir / fmt::format("worker-{}.log", i)).string()));
+  }
+  auto stop_all = [&] {
+    for (auto it = children.rbegin(); it != children.rend(); ++it) (*it)->stop();
+  };
+  g_interrupted = 0;
+  std::signal(SIGINT, [](int) { g_interrupted = 1; });
+  std::signal(SIGTERM, [](int) { g_interrupted = 1; });
+
+  client::StudyClient client(domain, true, /*read_trials=*/true);
+  const auto start = std::chrono::steady_clock::now();
+  const client::CommandResult submitted = client.submit(opts.config_text, opts.config_source, 30.0);
+  if (!submitted.ok) {
+    stop_all();
+    throw InputError(submitted.message);
+  }
+  result.study_id = submitted.study_id;
+  ProgressBar bar(cfg.budget, opts.quiet, opts.progress_label);
+  json state;
+  int shown = -1;
+  while (true) {
+    if (g_interrupted) {
+      stop_all();
+      throw std::runtime_error(fmt::format("interrupted; the study is kept in {} (resume with --store)", store));
+    }
+    if (!children.front()->running()) {
+      stop_all();
+      throw std::runtime_error(fmt::format("the optimizer service exited; see {}", (dir / "optimizer.log").string()));
+    }
+    if (std::none_of(children.begin() + 1, children.end(), [](auto& c) { return c->running(); })) {
+      stop_all();
+      throw std::runtime_error(fmt::format("every worker exited; see {}", (dir / "worker-0.log").string()));
+    }
+    const auto states = client.states();
+    if (auto it = states.find(submitted.study_id); it != states.end()) {
+      state = it->second;
+      const int done = state["completed"].get<int>();
+      if (done != shown) {
+        bar.update(done, state["best_cost"].is_null() ? std::nan("") : state["best_cost"].get<double>(),
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        shown = done;
+      }
+      if (is_terminal(state["state"].get<std::string>())) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // Trial records travel on their own topic; give the last ones a moment to arrive.
+  for (int i = 0; i < 100; ++i) {
+    result.records = client.trials(submitted.study_id);
+    if (static_cast<int>(result.records.size()) >= state["completed"].get<int>()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  stop_all();
+  result.state = state;
+  if (state["state"] != "done") {
+    throw std::runtime_error(fmt::format("study {} ended {}: {}", submitted.study_id, state["state"].get<std::string>(),
+                                         state["message"].get<std::string>()));
+  }
+  return result;
+}
+
+}  // namespace cpgmatch::cli

@@ -1,0 +1,46 @@
+// One study run locally to completion through the service: the optimizer service and simulation
+// workers as child processes on a private DDS domain (UDP on loopback only), the study submitted, a
+// progress bar until it is done, the children stopped. Shared by `study run` and `reproduce`.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cpgmatch/study/study_config.hpp"
+
+namespace cpgmatch::cli {
+
+struct LocalStudyOptions {
+  std::string config_text;    // the study file's text
+  std::string config_source;  // its name in messages
+  int workers = 0;            // 0: one per core
+  std::filesystem::path out;  // results directory; empty: results/<name>-<time>
+  std::string store;          // empty: <out>/study.db
+  int domain = -1;            // -1: a private one, 150..229 from the pid
+  bool quiet = false;
+  std::string progress_label; // printed before the progress bar ("replicate 2/5 ")
+};
+
+struct LocalStudyResult {
+  study::StudyConfig config;
+  std::filesystem::path dir;
+  std::string store;
+  int study_id = 0;
+  int workers = 0;
+  double wall_time_s = 0.0;
+  nlohmann::json state;                 // the last StudyState seen (to_json)
+  std::vector<nlohmann::json> records;  // to_json(TrialRecord), as read over DDS
+};
+
+// The paper's study: every key but the name has the paper's value.
+LocalStudyOptions paper_study_options();
+// Options for a study file (its text is read here; load errors name the file).
+LocalStudyOptions study_file_options(const std::string& path);
+
+// Throws InputError for a study the service refuses, std::runtime_error when the service or every
+// worker exits, on SIGINT/SIGTERM, or when the study ends other than done.
+LocalStudyResult run_local_study(const LocalStudyOptions& options);
+
+}  // namespace cpgmatch::cli

@@ -1,0 +1,96 @@
+#include "study_analysis.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/analysis/gnuplot.hpp"
+#include "cpgmatch/analysis/plots.hpp"
+#include "cpgmatch/analysis/stored_study_trials.hpp"
+#include "cpgmatch/sim/sim_rollout.hpp"
+
+namespace cpgmatch::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+sim::SimRolloutJob study_job(const study::StudyConfig& cfg, const std::map<std::string, double>& params,
+                             std::uint64_t seed) {
+  sim::SimRolloutJob job;
+  job.model = sim::load_morti_model(sim::default_model_path());
+  job.settings = load_rollout_settings(sim::default_rollout_settings_path());
+  job.params = load_parameters(sim::default_params_path());
+  job.terrain = sim::TerrainSpec::parse(cfg.terrain);
+  job.seed = seed;
+  job.settings.entrain_s = cfg.entrain_s;
+  job.settings.eval_s = cfg.eval_s;
+  for (const auto& [name, value] : params) set_parameter(job.params, name, value, "analysis");
+  return job;
+}
+
+}  // namespace
+
+analysis::RolloutEvaluator sim_evaluator(const study::StudyConfig& cfg) {
+  return [cfg](const std::map<std::string, double>& params, std::uint64_t seed) {
+    try {
+      const RolloutResult r = sim::run_sim_rollout(study_job(cfg, params, seed));
+      return analysis::RolloutOutcome{true, r.fell, r.cost};
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "jitter rollout failed: {}\n", e.what());
+      return analysis::RolloutOutcome{false, false, std::nan("")};
+    }
+  };
+}
+
+StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_draws, bool quiet) {
+  StudyAnalysis a;
+  a.config = study::load_study_config_text(stored.config_yaml, stored.source_name);
+  a.trials = analysis::trials_from_stored_study(stored);
+  a.report = analysis::science_report(a.trials);
+  if (jitter_draws > 0 && a.report.best_rollout > 0) {
+    analysis::JitterOptions o;
+    o.draws = jitter_draws;
+    o.rollout_seed = a.trials.seed;
+    const auto evaluate = sim_evaluator(a.config);
+    int done = 0;
+    const bool tty = isatty(STDERR_FILENO);
+    if (!quiet && !tty) fmt::print(stderr, "jitter test of the best parameters: {} rollouts\n", jitter_draws);
+    a.report.jitter = analysis::jitter_best(
+        a.report.best_params, a.trials.bounds,
+        [&](const std::map<std::string, double>& p, std::uint64_t seed) {
+          ++done;
+          if (!quiet && tty) fmt::print(stderr, "\rjitter test of the best parameters: rollout {}/{}", done, jitter_draws);
+          return evaluate(p, seed);
+        },
+        o);
+    if (!quiet && tty) fmt::print(stderr, "\n");
+  }
+  a.json = analysis::to_json(a.report);
+  return a;
+}
+
+bool write_study_figures(const fs::path& dir, const StudyAnalysis& a, bool trace_best, bool quiet) {
+  bool ok = true;
+  try {
+    analysis::plot_study(a.trials, dir);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "figures: {}\n", e.what());
+    ok = false;
+  }
+  if (!trace_best || a.report.best_rollout <= 0) return ok;
+  try {
+    const fs::path trace = fs::absolute(dir) / "best_trace.csv";
+    sim::run_sim_rollout(study_job(a.config, a.report.best_params, a.trials.seed), make_csv_trace(trace.string()));
+    analysis::plot_trace(trace, dir);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "fig4: {}\n", e.what());
+    ok = false;
+  }
+  if (!quiet && ok) fmt::print(stderr, "figures written to {}\n", fs::absolute(dir).string());
+  return ok;
+}
+
+}  // namespace cpgmatch::cli

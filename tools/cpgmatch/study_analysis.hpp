@@ -1,0 +1,38 @@
+// The command line's glue between a finished study and the analysis library: in-process rollouts for
+// the jitter test and Fig. 4, and the files a study's results folder gets (analysis.json, figures).
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cpgmatch/analysis/jitter.hpp"
+#include "cpgmatch/analysis/science_report.hpp"
+#include "cpgmatch/analysis/trial.hpp"
+#include "cpgmatch/study/study_config.hpp"
+#include "cpgmatch/study/study_store.hpp"
+
+namespace cpgmatch::cli {
+
+// Runs rollouts in this process (the `sim` library) under the study's conditions: its terrain, its
+// entrainment and evaluation times, the shipped model and rollout settings, as the sim worker does.
+analysis::RolloutEvaluator sim_evaluator(const study::StudyConfig& cfg);
+
+struct StudyAnalysis {
+  study::StudyConfig config;
+  analysis::StudyTrials trials;
+  analysis::ScienceReport report;
+  nlohmann::json json;  // to_json(report)
+};
+
+// The science report of a stored study; with jitter_draws > 0 the best point is re-run that many
+// times under ±1% jitter (progress on stderr unless quiet).
+StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_draws, bool quiet);
+
+// fig5a/fig5b/fig6 into dir; with `trace_best`, also one traced rollout of the best parameters
+// (best_trace.csv) and fig4 from it. Figure failures are reported on stderr and returned as false:
+// the study's numbers are still good without them.
+bool write_study_figures(const std::filesystem::path& dir, const StudyAnalysis& a, bool trace_best, bool quiet);
+
+}  // namespace cpgmatch::cli

@@ -1,0 +1,56 @@
+#include "study_results.hpp"
+
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/analysis/stored_study_trials.hpp"
+
+namespace cpgmatch::cli {
+namespace {
+
+using nlohmann::json;
+
+// trials.jsonl keeps the shape it always had: one object per rollout, `result` null for a rollout
+// that could not run.
+json trial_line(const json& record) {
+  const json& report = record["report"];
+  json t{{"index", record["trial_id"]}, {"ok", report["ok"]}, {"params", record["params"]}};
+  if (report["ok"].get<bool>()) {
+    json result = report;
+    result["params"] = record["params"];
+    t["result"] = result;
+    t["cost"] = report["cost"];
+  } else {
+    t["result"] = nullptr;
+    t["cost"] = nullptr;
+    t["error"] = report["error"];
+  }
+  return t;
+}
+
+}  // namespace
+
+StudyAnalysis write_study_results(const LocalStudyResult& run, int jitter_draws, bool quiet) {
+  {
+    std::ofstream trials(run.dir / "trials.jsonl");
+    for (const auto& r : run.records) trials << trial_line(r).dump() << '\n';
+  }
+  // The store, not the DDS records, is the study's record of truth (and what `analyze` reads later).
+  StudyAnalysis a = analyse_stored_study(analysis::load_stored_study(run.store, run.study_id), jitter_draws, quiet);
+  a.json["wall_time_s"] = run.wall_time_s;
+  a.json["workers"] = run.workers;
+  a.json["store"] = run.store;
+  a.json["reissued"] = run.state.value("reissued", json(nullptr));
+  std::ofstream(run.dir / "analysis.json") << a.json.dump(2) << '\n';
+  if (a.report.best_rollout > 0) {
+    std::ofstream yaml(run.dir / "best_params.yaml");
+    yaml << fmt::format("# best parameters of study '{}' (cost {:.4f}, rollout {})\n", a.report.name, a.report.best_cost,
+                        a.report.best_rollout);
+    for (const auto& [k, v] : a.report.best_params) yaml << k << ": " << v << '\n';
+  }
+  write_study_figures(run.dir, a, /*trace_best=*/true, quiet);
+  return a;
+}
+
+}  // namespace cpgmatch::cli
