@@ -81,11 +81,11 @@ TEST(Physics, FeetSettleWithoutBouncing) {
   }
 }
 
-// Hip excursion of the front-left leg during `passive_s` of passive hips, starting from walking.
+// Largest excursion of the front-left hip during `passive_s` with every hip motor passive, from standing.
 double passive_hip_excursion(const MortiModel& model, double passive_s) {
   OdePlant plant(model, TerrainSpec::parse("flat"), 0);
   PerLeg<JointCommand> cmd{};
-  cmd[kFrontLeft].hip_angle_rad = 0.3;  // swing the leg forward first, in the air? no: it stands; load it
+  cmd[kFrontLeft].hip_angle_rad = 0.3;  // stand with the FL leg 0.3 rad forward: its hip is loaded off-centre
   plant.command(cmd);
   plant.advance(0.5);
   const double start = plant.state().legs[kFrontLeft].hip_angle_rad;
