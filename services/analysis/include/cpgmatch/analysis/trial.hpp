@@ -10,15 +10,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/cost.hpp"
+
 namespace cpgmatch::analysis {
 
-struct CostTerms {  // eqs. 2-7 of the paper, as the rollout report carries them
-  double feedback = 0.0;
-  double distance = 0.0;
-  double pitch = 0.0;
-  double contact = 0.0;
-  double periodicity = 0.0;
-};
+// The cost terms (eqs. 2-7) are the science's own type: the analysis reads what the rollout computed.
+using cpgmatch::CostTerms;
 
 struct Trial {
   int trial_id = 0;                // 0-based, the store's order; "rollout k" in the report is trial_id + 1
