@@ -106,6 +106,8 @@ check "analyze prints one line" test "$(wc -l <"$tmp/an.json")" -eq 1
 check "analyze table beside the paper" grep -q "J_feedback vs speed-corrected torque residual" "$tmp/an.txt"
 check "analyze unknown study" expect_exit 2 "\-\-study 999" "$bin" analyze --store "$tmp/tiny/study.db" --study 999
 check "analyze missing store" expect_exit 2 "\-\-store" "$bin" analyze --store "$tmp/nope.db"
+check "study run bad workers" expect_exit 2 "\-\-workers" "$bin" study run --workers -3
+check "reproduce bad jitter" expect_exit 2 "\-\-jitter" "$bin" reproduce --jitter -1
 check "analyze bad jitter" expect_exit 2 "\-\-jitter" "$bin" analyze --store "$tmp/tiny/study.db" --jitter -1
 check "plot needs one source" expect_exit 2 "\-\-store" "$bin" plot
 check "plot unknown study" expect_exit 2 "\-\-study 999" "$bin" plot --store "$tmp/tiny/study.db" --study 999

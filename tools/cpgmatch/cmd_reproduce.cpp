@@ -40,33 +40,19 @@ std::string with_seed(const std::string& text, const std::string& source, int se
 void add_reproduce_command(CLI::App& app) {
   struct Options {
     int seeds = 5;
-    std::string out;
-    int workers = 0;
-    std::string config;
-    int jitter = 12;
-    bool quiet = false;
+    LocalStudyFlags common;  // --config (its seed is replaced), --workers, --out, --jitter, --quiet
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "reproduce", "run the paper's study with seeds 1..N, each as `study run` does, and compare mean ± sd with the paper");
   cmd->add_option("--seeds", opts->seeds, "replicates, seeds 1..N (default 5)");
-  cmd->add_option("--out", opts->out, "results directory (default: results/reproduce-<time>); one folder per seed inside");
-  cmd->add_option("--workers", opts->workers, "simulation workers per study (default: number of cores)");
-  cmd->add_option("--config", opts->config, "study YAML (default: the paper's study); its seed is replaced");
-  cmd->add_option("--jitter", opts->jitter, "per replicate: re-run the best parameters N times under +-1% jitter");
-  cmd->add_flag("--quiet", opts->quiet, "no progress on stderr");
+  opts->common.add_to(*cmd, "results directory (default: results/reproduce-<time>); one folder per seed inside");
   cmd->callback([opts] {
     if (opts->seeds < 1) throw InputError(fmt::format("--seeds {}: must be >= 1", opts->seeds));
-    if (opts->workers < 0) throw InputError(fmt::format("--workers {}: must be >= 1", opts->workers));
-    if (opts->jitter < 0) throw InputError(fmt::format("--jitter {}: must be >= 0", opts->jitter));
-    const LocalStudyOptions base = opts->config.empty() ? paper_study_options() : study_file_options(opts->config);
-    fs::path out = opts->out;
-    if (out.empty()) {
-      const auto stamp = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-      char buf[32];
-      std::strftime(buf, sizeof(buf), "%Y%m%d-%H%M%S", std::localtime(&stamp));
-      out = fs::path("results") / fmt::format("reproduce-{}", buf);
-    }
+    const LocalStudyOptions base = opts->common.options();
+    const bool quiet = base.quiet;
+    const int jitter = opts->common.jitter;
+    const fs::path out = base.out.empty() ? timestamped_results_dir("reproduce") : base.out;
     fs::create_directories(out);
 
     std::vector<analysis::StudyTrials> studies;
@@ -74,13 +60,11 @@ void add_reproduce_command(CLI::App& app) {
     for (int seed = 1; seed <= opts->seeds; ++seed) {
       LocalStudyOptions o = base;
       o.config_text = with_seed(base.config_text, base.config_source, seed);
-      o.workers = opts->workers;
       o.out = out / fmt::format("seed-{}", seed);
-      o.quiet = opts->quiet;
       o.progress_label = fmt::format("replicate {}/{} (seed {}) ", seed, opts->seeds, seed);
       const LocalStudyResult run = run_local_study(o);
-      const StudyAnalysis a = write_study_results(run, opts->jitter, opts->quiet);
-      if (!opts->quiet) {
+      const StudyAnalysis a = write_study_results(run, jitter, quiet);
+      if (!quiet) {
         fmt::print(stderr, "replicate {}/{}: best cost {:.3f} (rollout {}), {} falls, J_feedback ratio {:.3f}\n", seed,
                    opts->seeds, a.report.best_cost, a.report.best_rollout, a.report.falls, a.report.feedback_ratio);
       }

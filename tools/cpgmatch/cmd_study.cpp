@@ -17,36 +17,24 @@ void add_study_command(CLI::App& app) {
   study->require_subcommand(1);
   add_study_service_commands(study);
   struct Options {
-    std::string config;
-    int workers = 0;
-    std::string out;
+    LocalStudyFlags common;
     std::string store;
     int domain = -1;
-    bool quiet = false;
     bool json = false;
-    int jitter = 12;
   };
   auto opts = std::make_shared<Options>();
   CLI::App* run = study->add_subcommand(
       "run", "run a study locally to completion: optimizer service and workers as child processes on a private DDS domain");
-  run->add_option("--config", opts->config, "study YAML (default: the paper's study)");
-  run->add_option("--workers", opts->workers, "simulation workers, one rollout each at a time (default: number of cores)");
-  run->add_option("--out", opts->out, "results directory (default: results/<name>-<time>)");
+  opts->common.add_to(*run, "results directory (default: results/<name>-<time>)");
   run->add_option("--store", opts->store, "SQLite study store (default: <out>/study.db)");
   run->add_option("--domain", opts->domain, "DDS domain id (default: a private one, 150..229)");
-  run->add_flag("--quiet", opts->quiet, "no progress bar");
   run->add_flag("--json", opts->json, "print the science report as one JSON object");
-  run->add_option("--jitter", opts->jitter, "re-run the best parameters N times under +-1% jitter (0: skip)");
   run->callback([opts] {
-    if (opts->jitter < 0) throw InputError("--jitter must be >= 0");
-    LocalStudyOptions o = opts->config.empty() ? paper_study_options() : study_file_options(opts->config);
-    o.workers = opts->workers;
-    o.out = opts->out;
+    LocalStudyOptions o = opts->common.options();
     o.store = opts->store;
     o.domain = opts->domain;
-    o.quiet = opts->quiet;
     const LocalStudyResult result = run_local_study(o);
-    const StudyAnalysis a = write_study_results(result, opts->jitter, opts->quiet);
+    const StudyAnalysis a = write_study_results(result, opts->common.jitter, o.quiet);
     if (opts->json) {
       std::cout << a.json.dump() << std::endl;
       return;

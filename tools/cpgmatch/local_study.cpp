@@ -55,6 +55,31 @@ volatile std::sig_atomic_t g_interrupted = 0;
 
 }  // namespace
 
+fs::path timestamped_results_dir(const std::string& prefix) {
+  const auto stamp = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y%m%d-%H%M%S", std::localtime(&stamp));
+  return fs::path("results") / fmt::format("{}-{}", prefix, buf);
+}
+
+void LocalStudyFlags::add_to(CLI::App& cmd, const std::string& out_help) {
+  cmd.add_option("--config", config, "study YAML (default: the paper's study)");
+  cmd.add_option("--workers", workers, "simulation workers, one rollout each at a time (default: number of cores)");
+  cmd.add_option("--out", out, out_help);
+  cmd.add_option("--jitter", jitter, "re-run the best parameters N times under +-1% jitter (0: skip)");
+  cmd.add_flag("--quiet", quiet, "no progress on stderr");
+}
+
+LocalStudyOptions LocalStudyFlags::options() const {
+  if (workers < 0) throw InputError(fmt::format("--workers {}: must be >= 1 (0: one per core)", workers));
+  if (jitter < 0) throw InputError(fmt::format("--jitter {}: must be >= 0", jitter));
+  LocalStudyOptions o = config.empty() ? paper_study_options() : study_file_options(config);
+  o.workers = workers;
+  o.out = out;
+  o.quiet = quiet;
+  return o;
+}
+
 LocalStudyOptions paper_study_options() {
   LocalStudyOptions o;
   o.config_text = "# the paper's study: every key but the name has the paper's value\nname: paper-study\n";
@@ -80,10 +105,7 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   result.workers = workers;
   const int domain = opts.domain >= 0 ? opts.domain : private_domain();
   dds::validate_domain(domain);
-  const auto stamp = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  char buf[32];
-  std::strftime(buf, sizeof(buf), "%Y%m%d-%H%M%S", std::localtime(&stamp));
-  const fs::path dir = opts.out.empty() ? fs::path("results") / fmt::format("{}-{}", cfg.name, buf) : opts.out;
+  const fs::path dir = opts.out.empty() ? timestamped_results_dir(cfg.name) : opts.out;
   fs::create_directories(dir);
   result.dir = dir;
   const std::string store = opts.store.empty() ? (dir / "study.db").string() : opts.store;

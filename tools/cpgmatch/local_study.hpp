@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <string>
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "cpgmatch/study/study_config.hpp"
@@ -33,6 +34,21 @@ struct LocalStudyResult {
   nlohmann::json state;                 // the last StudyState seen (to_json)
   std::vector<nlohmann::json> records;  // to_json(TrialRecord), as read over DDS
 };
+
+// The flags `study run` and `reproduce` share, and the options they give (validated: exit 2 naming the flag).
+struct LocalStudyFlags {
+  std::string config;
+  int workers = 0;
+  std::string out;
+  int jitter = 12;
+  bool quiet = false;
+
+  void add_to(CLI::App& cmd, const std::string& out_help);
+  LocalStudyOptions options() const;  // the study file (or the paper's) with workers, out and quiet set
+};
+
+// results/<prefix>-<local time>, e.g. results/paper-study-20261201-191855.
+std::filesystem::path timestamped_results_dir(const std::string& prefix);
 
 // The paper's study: every key but the name has the paper's value.
 LocalStudyOptions paper_study_options();
