@@ -279,17 +279,3 @@ TEST_F(CoordinatorTest, SeveralStudiesShareTheWorkersAndAllFinish) {
 
 }  // namespace
 }  // namespace cpgmatch::service
-
-namespace cpgmatch::service {
-namespace {
-
-TEST(RolloutSeed, EveryTrialGetsItsOwnSeedAndTheSameOneOnEveryRun) {
-  std::set<std::uint64_t> seen;
-  for (int trial = 0; trial < 1000; ++trial) seen.insert(rollout_seed(7, trial));
-  EXPECT_EQ(seen.size(), 1000u);
-  EXPECT_EQ(rollout_seed(7, 3), rollout_seed(7, 3));
-  EXPECT_NE(rollout_seed(7, 3), rollout_seed(8, 3));
-}
-
-}  // namespace
-}  // namespace cpgmatch::service

@@ -1,7 +1,11 @@
 // Phase locking, trajectory shapes and stance fraction of the CPG.
 #include <cmath>
 
+#include <set>
+
 #include <gtest/gtest.h>
+
+#include "cpgmatch/seeds.hpp"
 
 #include "cpgmatch/controller.hpp"
 #include "cpgmatch/cpg.hpp"
@@ -115,6 +119,14 @@ TEST(Cpg, BodyPitchRepeatsTwicePerCycleInGaitsWhoseGirdlesAlternateLeftRight) {
   EXPECT_EQ(pitch_harmonic(Gait::named("walk")), 2);
   EXPECT_EQ(pitch_harmonic(Gait::named("bound")), 1);
   EXPECT_EQ(pitch_harmonic(Gait::named("pronk")), 1);
+}
+
+TEST(Seeds, EveryTrialGetsItsOwnRolloutSeedAndTheSameOneOnEveryRun) {
+  std::set<std::uint64_t> seen;
+  for (std::uint64_t trial = 0; trial < 1000; ++trial) seen.insert(derived_seed(7, trial));
+  EXPECT_EQ(seen.size(), 1000u);
+  EXPECT_EQ(derived_seed(7, 3), derived_seed(7, 3));
+  EXPECT_NE(derived_seed(7, 3), derived_seed(8, 3));
 }
 
 }  // namespace

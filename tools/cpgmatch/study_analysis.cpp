@@ -57,12 +57,12 @@ StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_
     const auto evaluate = sim_evaluator(a.config);
     int done = 0;
     const bool tty = isatty(STDERR_FILENO);
-    if (!quiet && !tty) fmt::print(stderr, "jitter test of the best parameters: {} rollouts\n", jitter_draws);
+    if (!quiet && !tty) fmt::print(stderr, "jitter test of the recommended parameters: {} rollouts\n", jitter_draws);
     a.report.jitter = analysis::jitter_best(
-        a.report.best_params, a.trials.bounds,
+        analysis::answer_params(a.report), a.trials.bounds,
         [&](const std::map<std::string, double>& p, std::uint64_t seed) {
           ++done;
-          if (!quiet && tty) fmt::print(stderr, "\rjitter test of the best parameters: rollout {}/{}", done, jitter_draws);
+          if (!quiet && tty) fmt::print(stderr, "\rjitter test of the recommended parameters: rollout {}/{}", done, jitter_draws);
           return evaluate(p, seed);
         },
         o);
@@ -83,7 +83,7 @@ bool write_study_figures(const fs::path& dir, const StudyAnalysis& a, bool trace
   if (!trace_best || a.report.best_rollout <= 0) return ok;
   try {
     const fs::path trace = fs::absolute(dir) / "best_trace.csv";
-    sim::run_sim_rollout(study_job(a.config, a.report.best_params, a.trials.seed), make_csv_trace(trace.string()));
+    sim::run_sim_rollout(study_job(a.config, analysis::answer_params(a.report), a.trials.seed), make_csv_trace(trace.string()));
     analysis::plot_trace(trace, dir);
   } catch (const std::exception& e) {
     fmt::print(stderr, "fig4: {}\n", e.what());

@@ -45,9 +45,13 @@ StudyAnalysis write_study_results(const LocalStudyResult& run, int jitter_draws,
   std::ofstream(run.dir / "analysis.json") << a.json.dump(2) << '\n';
   if (a.report.best_rollout > 0) {
     std::ofstream yaml(run.dir / "best_params.yaml");
-    yaml << fmt::format("# best parameters of study '{}' (cost {:.4f}, rollout {})\n", a.report.name, a.report.best_cost,
-                        a.report.best_rollout);
-    for (const auto& [k, v] : a.report.best_params) yaml << k << ": " << v << '\n';
+    const auto& rec = a.report.recommendation;
+    yaml << fmt::format("# the answer of study '{}': ", a.report.name)
+         << (rec ? fmt::format("rollout {}, lowest GP posterior mean {:.4f} (its own rollout cost {:.4f}); lowest single "
+                               "cost was rollout {} ({:.4f})\n",
+                               rec->rollout, rec->predicted_cost, rec->observed_cost, a.report.best_rollout, a.report.best_cost)
+                 : fmt::format("rollout {} (cost {:.4f})\n", a.report.best_rollout, a.report.best_cost));
+    for (const auto& [k, v] : analysis::answer_params(a.report)) yaml << k << ": " << v << '\n';
   }
   write_study_figures(run.dir, a, /*trace_best=*/true, quiet);
   return a;

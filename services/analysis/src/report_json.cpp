@@ -76,9 +76,21 @@ nlohmann::json to_json(const ScienceReport& r) {
        {{"contact", number(r.fraction_contact_small)},
         {"periodicity", number(r.fraction_periodicity_small)},
         {"both", number(r.fraction_both_small)}}},
+      {"recommended", nullptr},
       {"jitter", nullptr},
       {"paper", paper_values()},
   };
+  if (r.recommendation) {
+    const Recommendation& rec = *r.recommendation;
+    nlohmann::json rec_params = nlohmann::json::object();
+    for (const auto& [name, value] : rec.params) rec_params[name] = value;
+    j["recommended"] = {{"rollout", rec.rollout},
+                        {"predicted_cost", number(rec.predicted_cost)},
+                        {"predicted_sd", number(rec.predicted_sd)},
+                        {"observed_cost", number(rec.observed_cost)},
+                        {"fell", rec.fell},
+                        {"params", rec_params}};
+  }
   if (r.jitter) {
     j["jitter"] = {{"draws", r.jitter->draws},         {"relative", r.jitter->relative}, {"failed", r.jitter->failed},
                    {"falls", r.jitter->falls},         {"cost_mean", number(r.jitter->cost_mean)},

@@ -68,8 +68,14 @@ std::vector<TableRow> report_rows(const nlohmann::json& report) {
       {"  fraction, both", "small_terms.both", 3},
   };
   rows.insert(rows.end(), rest.begin(), rest.end());
+  if (report.contains("recommended") && report["recommended"].is_object()) {
+    rows.push_back({"recommended: the rollout with the lowest GP posterior mean", "", 0});
+    rows.push_back({"  rollout", "recommended.rollout", 0});
+    rows.push_back({"  predicted cost", "recommended.predicted_cost", 3});
+    rows.push_back({"  its own rollout's cost", "recommended.observed_cost", 3});
+  }
   if (report.contains("jitter") && report["jitter"].is_object()) {
-    rows.push_back({fmt::format("best parameters under +-{:.0f}% jitter", 100 * report["jitter"]["relative"].get<double>()),
+    rows.push_back({fmt::format("recommended parameters under +-{:.0f}% jitter", 100 * report["jitter"]["relative"].get<double>()),
                     "", 0});
     rows.push_back({"  draws", "jitter.draws", 0});
     rows.push_back({"  falls", "jitter.falls", 0});

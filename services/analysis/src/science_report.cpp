@@ -156,7 +156,12 @@ ScienceReport science_report(const StudyTrials& s, const ReportOptions& o) {
   r.fraction_contact_small = walked > 0 ? contact_small / walked : std::nan("");
   r.fraction_periodicity_small = walked > 0 ? periodicity_small / walked : std::nan("");
   r.fraction_both_small = walked > 0 ? both_small / walked : std::nan("");
+  r.recommendation = recommend(s);
   return r;
+}
+
+const std::map<std::string, double>& answer_params(const ScienceReport& r) {
+  return r.recommendation ? r.recommendation->params : r.best_params;
 }
 
 }  // namespace cpgmatch::analysis

@@ -1,3 +1,4 @@
+#include "cpgmatch/seeds.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 
 #include <algorithm>
@@ -247,14 +248,6 @@ void Coordinator::drop_worker(const std::string& worker_id, const std::string& w
 
 // ---- candidates ----------------------------------------------------------------------------------
 
-std::uint64_t rollout_seed(std::uint64_t study_seed, int trial_id) {
-  // splitmix64 of the pair: neighbouring trial ids get unrelated seeds.
-  std::uint64_t z = study_seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(trial_id) + 1;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
-}
-
 msg::Candidate Coordinator::make_candidate(const Study& study, int trial_id, const InFlight& f) const {
   msg::Candidate c;
   c.study_id(static_cast<std::uint32_t>(study.id));
@@ -269,7 +262,7 @@ msg::Candidate Coordinator::make_candidate(const Study& study, int trial_id, con
   // Each trial gets its own rollout seed (sensor noise, rough ground): the optimizer then sees the
   // rollout-to-rollout spread it must be robust to, instead of one frozen noise realisation that a lucky
   // point can exploit. Still a pure function of (study seed, trial id): same seed, same study.
-  spec.seed(rollout_seed(study.config.optimizer.seed, trial_id));
+  spec.seed(derived_seed(study.config.optimizer.seed, static_cast<std::uint64_t>(trial_id)));
   c.rollout(spec);
   std::map<std::string, double> full = to_map(options_.base_parameters);
   for (const auto& [name, value] : study.config.space.to_named(f.x)) full[name] = value;

@@ -25,7 +25,7 @@ struct JitterOptions {
   int draws = 12;
   double relative = 0.01;         // each optimised parameter times 1 + U(-relative, relative)
   std::uint64_t jitter_seed = 1;  // the perturbations' random generator
-  std::uint64_t rollout_seed = 0; // passed to the evaluator: the study's own rollout conditions
+  std::uint64_t rollout_seed = 0; // draw k runs with derived_seed(rollout_seed, 1000000 + k): trial ids stay below
 };
 
 struct JitterSummary {

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/analysis/recommendation.hpp"
 #include "cpgmatch/analysis/jitter.hpp"
 #include "cpgmatch/analysis/trial.hpp"
 
@@ -86,10 +87,16 @@ struct ScienceReport {
   double fraction_periodicity_small = 0.0;
   double fraction_both_small = 0.0;
 
+  // The study's answer: the rollout with the lowest GP posterior mean (recommendation.hpp). The jitter
+  // test runs on these parameters.
+  std::optional<Recommendation> recommendation;
   std::optional<JitterSummary> jitter;      // set by the caller when it ran the jitter test
 };
 
 ScienceReport science_report(const StudyTrials& study, const ReportOptions& options = {});
+
+// The parameters a study answers with: the recommendation when there is one, else the best rollout's.
+const std::map<std::string, double>& answer_params(const ScienceReport& r);
 
 // Every statistic, each beside the paper's value where the paper gives one (key "paper").
 nlohmann::json to_json(const ScienceReport& r);

@@ -39,10 +39,6 @@ class Outbox {
   virtual void reply(const msg::CommandReply& r) = 0;
 };
 
-// The rollout seed of one trial: a hash of the study's seed and the trial id (different for every trial,
-// the same on every run and restart).
-std::uint64_t rollout_seed(std::uint64_t study_seed, int trial_id);
-
 struct CoordinatorOptions {
   double worker_timeout_s = 2.5;       // no announcement for this long: the worker is gone
   int max_consecutive_failures = 10;   // rollouts that could not run in a row before a study fails
