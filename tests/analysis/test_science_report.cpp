@@ -1,5 +1,6 @@
 // The science report on hand-made studies whose statistics can be worked out on paper.
 #include <cmath>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -7,6 +8,7 @@
 #include "cpgmatch/analysis/replicates.hpp"
 #include "cpgmatch/analysis/science_report.hpp"
 #include "cpgmatch/analysis/statistics.hpp"
+#include "cpgmatch/seeds.hpp"
 
 namespace cpgmatch::analysis {
 namespace {
@@ -203,14 +205,17 @@ TEST(Jitter, PerturbsWithinOnePercentClampsAndCounts) {
   EXPECT_TRUE(moved);
   EXPECT_EQ(jittered_points(best, bounds, o), points);  // seeded
   int calls = 0;
+  std::set<std::uint64_t> seeds;  // every draw its own rollout seed, derived from the study's
   const auto summary = jitter_best(best, bounds,
                                    [&](const std::map<std::string, double>& p, std::uint64_t seed) {
-                                     EXPECT_EQ(seed, 42u);
+                                     EXPECT_EQ(seed, derived_seed(42, 1000000 + calls));
+                                     seeds.insert(seed);
                                      ++calls;
                                      return RolloutOutcome{true, calls % 4 == 0, p.at("duty_factor_front") * 10};
                                    },
                                    o);
   EXPECT_EQ(calls, 12);
+  EXPECT_EQ(seeds.size(), 12u);
   EXPECT_EQ(summary.falls, 3);
   EXPECT_NEAR(summary.cost_mean, 5.0, 0.05);
   EXPECT_GT(summary.cost_sd, 0.0);
