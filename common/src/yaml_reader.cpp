@@ -85,6 +85,18 @@ int YamlReader::get_int(const std::string& key, int fallback) const {
   return static_cast<int>(v);
 }
 
+double YamlReader::get_double_in(const std::string& key, double fallback, double low, double high) const {
+  const double v = get_double(key, fallback);
+  if (v < low || v > high) fail(key, fmt::format("must be in [{}, {}], got {}", low, high, v));
+  return v;
+}
+
+int YamlReader::get_int_in(const std::string& key, int fallback, int low, int high) const {
+  const int v = get_int(key, fallback);
+  if (v < low || v > high) fail(key, fmt::format("must be a whole number in [{}, {}], got {}", low, high, v));
+  return v;
+}
+
 bool YamlReader::get_bool(const std::string& key, bool fallback) const {
   if (!has(key)) return fallback;
   const std::string text = node_[key].IsScalar() ? node_[key].Scalar() : "";
@@ -104,9 +116,27 @@ std::string YamlReader::require_string(const std::string& key) const {
   return get_string(key, "");
 }
 
-void YamlReader::reject_unknown_keys(const std::set<std::string>& known) const {
+void YamlReader::check_keys() const {
+  // yaml-cpp keeps the last of two equal keys and accepts a mapping or list as a key: both would let a
+  // file mean something other than what it says, so both are refused with the line they are on.
+  std::set<std::string> seen;
   for (const auto& entry : node_) {
-    const std::string key = entry.first.as<std::string>();
+    const auto mark = entry.first.Mark();
+    const std::string at = mark.line < 0 ? source_ : fmt::format("{}:{}", source_, mark.line + 1);
+    if (!entry.first.IsScalar()) {
+      throw InputError(fmt::format("{}: field '{}': keys must be plain names, not a list or mapping", at, field("")));
+    }
+    if (!seen.insert(entry.first.Scalar()).second) {
+      throw InputError(fmt::format("{}: field '{}': duplicate key (it appears twice in one mapping)", at,
+                                   field(entry.first.Scalar())));
+    }
+  }
+}
+
+void YamlReader::reject_unknown_keys(const std::set<std::string>& known) const {
+  check_keys();
+  for (const auto& entry : node_) {
+    const std::string key = entry.first.Scalar();
     if (!known.count(key)) {
       std::string list;
       for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
@@ -117,8 +147,9 @@ void YamlReader::reject_unknown_keys(const std::set<std::string>& known) const {
 
 void YamlReader::for_each_number(
     const std::function<void(const std::string&, double, const std::string&)>& fn) const {
+  check_keys();
   for (const auto& entry : node_) {
-    const std::string key = entry.first.as<std::string>();
+    const std::string key = entry.first.Scalar();
     fn(key, parse_double(entry.second, key), where(key));
   }
 }

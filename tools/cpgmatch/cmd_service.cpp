@@ -15,6 +15,7 @@
 
 #include <fmt/format.h>
 
+#include "cpgmatch/study/study_config.hpp"
 #include "commands.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "service_flags.hpp"
@@ -127,6 +128,9 @@ void add_study_service_commands(CLI::App* study) {
     add_service_flags(cmd, o->service);
     cmd->callback([o] {
       const std::string text = read_file(o->config);
+      // Checked here first, with the same rules as the service: a bad file exits 2 at once, naming the
+      // field and line, without waiting for an optimizer (which would refuse it the same way).
+      (void)study::load_study_config_text(text, o->config);
       client::StudyClient c = connect(o->service);
       const client::CommandResult r = c.submit(text, o->config, o->service.timeout_s);
       if (!r.ok) throw InputError(r.message);  // e.g. "study.yaml:4: budget: must be >= 1"

@@ -30,9 +30,15 @@ class YamlReader {
   bool get_bool(const std::string& key, bool fallback) const;
   std::string get_string(const std::string& key, const std::string& fallback) const;
   std::string require_string(const std::string& key) const;
+  // A finite number in [low, high]; the message names the field, its file:line and the range.
+  double get_double_in(const std::string& key, double fallback, double low, double high) const;
+  int get_int_in(const std::string& key, int fallback, int low, int high) const;
 
-  // Throws when the map has a key not in `known` (catches typos like "duty_factor_frnt").
+  // Throws when the map has a key not in `known` (catches typos like "duty_factor_frnt"), a key twice,
+  // or a key that is not a plain scalar.
   void reject_unknown_keys(const std::set<std::string>& known) const;
+  // Throws for a duplicate or non-scalar key (reject_unknown_keys and for_each_number call it).
+  void check_keys() const;
 
   // Calls fn(key, value-as-double, origin) for every entry of a map of numbers.
   void for_each_number(const std::function<void(const std::string&, double, const std::string&)>& fn) const;

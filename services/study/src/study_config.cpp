@@ -5,6 +5,7 @@
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/sim/terrain.hpp"
+#include "cpgmatch/text.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 
 namespace cpgmatch::study {
@@ -23,16 +24,22 @@ StudyConfig load_study_config_text(const std::string& text, const std::string& s
 
 namespace {
 
+// Limits on a study file. A study name travels in a 64-byte DDS string; a million rollouts of 20 s is
+// over 200 days of one core's work, far beyond any real study, while the optimizer's memory and the
+// initial design grow with the budget (an unbounded budget let one file exhaust the service's memory).
+constexpr std::size_t kMaxStudyNameBytes = 64;
+constexpr int kMaxBudget = 100'000;
+constexpr double kMaxRolloutPartS = 3600.0;  // entrainment or evaluation, seconds
 
 StudyConfig parse(const YamlReader& r) {
   r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
                          "rollout", "terrain", "parameters", "fixed", "lease_s"});
   StudyConfig s;
+  // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");
-  s.budget = r.get_int("budget", s.budget);
-  if (s.budget < 1) r.fail("budget", "must be >= 1");
-  s.optimizer.initial_points = r.get_int("initial_points", 15);
-  if (s.optimizer.initial_points < 1) r.fail("initial_points", "must be >= 1");
+  if (const auto problem = name_problem(s.name, kMaxStudyNameBytes)) r.fail("name", *problem);
+  s.budget = r.get_int_in("budget", s.budget, 1, kMaxBudget);
+  s.optimizer.initial_points = r.get_int_in("initial_points", 15, 1, s.budget);
   try {
     s.optimizer.acquisition = bo::acquisition_from_string(r.get_string("acquisition", "gp_hedge"));
   } catch (const InputError& e) {
@@ -44,19 +51,15 @@ StudyConfig parse(const YamlReader& r) {
   } catch (const InputError& e) {
     r.fail(r.has("liar") ? "liar" : "initial_design", e.what());
   }
-  const int seed = r.get_int("seed", 0);
-  if (seed < 0) r.fail("seed", "must be >= 0");
+  const int seed = r.get_int_in("seed", 0, 0, 2'000'000'000);
   s.optimizer.seed = static_cast<std::uint64_t>(seed);
   if (r.has("rollout")) {
     const YamlReader ro = r.child("rollout");
     ro.reject_unknown_keys({"entrain_s", "eval_s"});
-    s.entrain_s = ro.get_double("entrain_s", s.entrain_s);
-    s.eval_s = ro.get_double("eval_s", s.eval_s);
-    if (s.entrain_s < 0.0) ro.fail("entrain_s", "must be >= 0");
-    if (s.eval_s <= 0.0) ro.fail("eval_s", "must be > 0");
+    s.entrain_s = ro.get_double_in("entrain_s", s.entrain_s, 0.0, kMaxRolloutPartS);
+    s.eval_s = ro.get_double_in("eval_s", s.eval_s, 0.01, kMaxRolloutPartS);
   }
-  s.lease_s = r.get_double("lease_s", 0.0);
-  if (s.lease_s < 0.0) r.fail("lease_s", "must be >= 0 (0: derived from the rollout length)");
+  s.lease_s = r.get_double_in("lease_s", 0.0, 0.0, 86400.0);  // 0: derived from the rollout length
   s.terrain = r.get_string("terrain", s.terrain);
   try {
     (void)sim::TerrainSpec::parse(s.terrain);

@@ -1,0 +1,19 @@
+// Checks on text that crosses the program's boundary (study names, ids): valid UTF-8, printable, bounded.
+// A name that is not UTF-8 would be stored, then break every JSON reader of the study state.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace cpgmatch {
+
+// True for well-formed UTF-8 (no overlong forms, no surrogates, nothing above U+10FFFF).
+bool is_valid_utf8(std::string_view text);
+
+// Why `name` is not acceptable as a name of at most `max_bytes` bytes (empty, too long, not UTF-8, or
+// holding control characters), or nothing when it is.
+std::optional<std::string> name_problem(std::string_view name, std::size_t max_bytes);
+
+}  // namespace cpgmatch
