@@ -27,6 +27,27 @@ msg::StudyStatus status_of(const std::string& state) {
   return msg::STUDY_RUNNING;
 }
 
+nlohmann::json model_state_json(const bo::ModelState& m) {
+  return {{"observations", m.observations},
+          {"fits", m.fits},
+          {"have_hyperparameters", m.have_hyperparameters},
+          {"hyperparameters", std::vector<double>(m.hyperparameters.data(), m.hyperparameters.data() + m.hyperparameters.size())},
+          {"hedge_gains", {m.hedge_gains[0], m.hedge_gains[1], m.hedge_gains[2]}}};
+}
+
+bo::ModelState model_state_from_json(const nlohmann::json& j) {
+  bo::ModelState m;
+  m.observations = j.at("observations").get<int>();
+  m.fits = j.at("fits").get<int>();
+  m.have_hyperparameters = j.at("have_hyperparameters").get<bool>();
+  const auto hyper = j.at("hyperparameters").get<std::vector<double>>();
+  m.hyperparameters = Eigen::Map<const Eigen::VectorXd>(hyper.data(), static_cast<Eigen::Index>(hyper.size()));
+  const auto gains = j.at("hedge_gains").get<std::vector<double>>();
+  if (gains.size() != 3) throw std::runtime_error("hedge_gains must hold 3 numbers");
+  m.hedge_gains = Eigen::Vector3d(gains[0], gains[1], gains[2]);
+  return m;
+}
+
 }  // namespace
 
 Coordinator::Coordinator(study::StudyStore& store, Outbox& outbox, CoordinatorOptions options, LogFn log_info,
@@ -71,7 +92,17 @@ void Coordinator::resume_from_store(double now_s) {
       store_.set_state(s.id, s.state, s.message);
       continue;
     }
-    open_study(std::move(s), &stored, now_s);
+    const int id = s.id;
+    try {
+      if (!stored.load_error.empty()) throw std::runtime_error(stored.load_error);
+      open_study(std::move(s), &stored, now_s);
+    } catch (const std::exception& e) {
+      // One study that cannot be reopened (a corrupt row, a state this build cannot restore, memory) must
+      // not take the rest of the store with it: mark it failed with the reason and serve the others.
+      studies_.erase(id);
+      warn_(fmt::format("study {} in {}: cannot be reopened ({}); marked failed", id, store_.path(), e.what()));
+      store_.set_state(id, "failed", fmt::format("cannot be reopened: {}", e.what()));
+    }
   }
   if (!studies_.empty()) info_(fmt::format("resumed {} studies from {}", studies_.size(), store_.path()));
 }
@@ -80,23 +111,27 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
   const int id = fresh.id;
   auto [it, inserted] = studies_.emplace(id, std::move(fresh));
   Study& s = it->second;
-  std::vector<bo::Observation> observations;
-  std::vector<std::pair<int, const study::StoredTrial*>> done;
+  std::vector<const study::StoredTrial*> done;
   if (stored != nullptr) {
     for (const auto& t : stored->trials) {
       s.next_trial_id = std::max(s.next_trial_id, t.trial_id + 1);
       if (t.status == study::TrialStatus::kDone) {
-        observations.push_back({t.x, t.cost, !t.ok});
-        done.emplace_back(t.trial_id, &t);
+        done.push_back(&t);
       } else {
         s.in_flight[t.trial_id] = InFlight{t.x, t.attempt, "", 0.0};  // re-issued once a slot is free
       }
     }
   }
-  s.optimizer = std::make_unique<bo::BayesianOptimizer>(
-      observations.empty() ? bo::BayesianOptimizer(s.config.space, s.config.optimizer)
-                           : bo::BayesianOptimizer::rebuild(s.config.space, s.config.optimizer, observations));
-  for (const auto& [trial_id, t] : done) {
+  // The optimizer was told the reports in the order they were stored, which with parallel workers is not
+  // the trial order: replay them in that order (trial id breaks ties).
+  std::stable_sort(done.begin(), done.end(), [](const study::StoredTrial* a, const study::StoredTrial* b) {
+    return a->reported_at_s != b->reported_at_s ? a->reported_at_s < b->reported_at_s : a->trial_id < b->trial_id;
+  });
+  std::vector<bo::Observation> observations;
+  for (const auto* t : done) observations.push_back({t->x, t->cost, !t->ok});
+  s.optimizer = std::make_unique<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
+  for (const auto* t : done) {
+    const int trial_id = t->trial_id;
     msg::RolloutReport report;
     try {
       report = dds::report_from_json(t->report);
@@ -105,7 +140,7 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
       report.ok(false);
       report.error("stored report unreadable");
     }
-    count_report(s, trial_id, t->x, report);
+    account_report(s, trial_id, t->x, report);  // the optimizer already holds it: counters and best only
     out_.publish_trial(make_trial_record(s, trial_id, t->x, report));
   }
   s.session_start_s = now_s;
@@ -116,6 +151,24 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
   }
   finish_if_complete(s);
   s.dirty = true;
+}
+
+bo::BayesianOptimizer Coordinator::restored_optimizer(const Study& s, const study::StoredStudy* stored,
+                                                      const std::vector<bo::Observation>& observations) const {
+  if (observations.empty()) return bo::BayesianOptimizer(s.config.space, s.config.optimizer);
+  if (stored != nullptr && stored->model_state.is_object()) {
+    try {
+      return bo::BayesianOptimizer::restore(s.config.space, s.config.optimizer, observations,
+                                            model_state_from_json(stored->model_state));
+    } catch (const std::exception& e) {
+      warn_(fmt::format("study {}: saved model state unusable ({}); replaying {} observations instead", s.id, e.what(),
+                        observations.size()));
+    }
+  } else {
+    info_(fmt::format("study {}: no saved model state (older store); replaying {} observations", s.id,
+                      observations.size()));
+  }
+  return bo::BayesianOptimizer::rebuild(s.config.space, s.config.optimizer, observations);
 }
 
 void Coordinator::submit(const msg::StudyCommand& command, double now_s, msg::CommandReply& reply) {
@@ -391,17 +444,22 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
 }
 
 void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
+  if (r.ok()) s.optimizer->tell(x, r.cost());
+  else s.optimizer->tell_failure(x);
+  store_.save_model_state(s.id, model_state_json(s.optimizer->model_state()));
+  account_report(s, trial_id, x, r);
+}
+
+void Coordinator::account_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
   ++s.completed;
   s.dirty = true;
   if (!r.ok()) {
     ++s.failed;
     ++s.consecutive_failures;
-    s.optimizer->tell_failure(x);
     return;
   }
   s.consecutive_failures = 0;
   if (r.fell()) ++s.falls;
-  s.optimizer->tell(x, r.cost());
   if (!(r.cost() >= s.best_cost)) {  // also true while best_cost is NaN
     s.best_cost = r.cost();
     s.best_trial = trial_id;

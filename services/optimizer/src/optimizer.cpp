@@ -104,10 +104,14 @@ void BayesianOptimizer::tell_failure(const Eigen::VectorXd& x) {
   record({x, 0.0, true});
 }
 
+bool BayesianOptimizer::model_due() const {
+  // The model is first used once the initial design has been evaluated (and needs two real values).
+  return static_cast<int>(observations_.size()) >= options_.initial_points && num_successful() >= 2;
+}
+
 void BayesianOptimizer::record(Observation obs) {
   observations_.push_back(std::move(obs));
-  // The model is first used once the initial design has been evaluated (and needs two real values).
-  if (static_cast<int>(observations_.size()) >= options_.initial_points && num_successful() >= 2) refit();
+  if (model_due()) refit();
 }
 
 void BayesianOptimizer::refit() {
@@ -130,6 +134,10 @@ void BayesianOptimizer::refit() {
   if (options_.acquisition == Acquisition::kHedge && next_proposals_.size() == 3) {
     for (int a = 0; a < 3; ++a) hedge_.gains[a] -= gp_.predict(next_proposals_[a]).mean;
   }
+  propose(data);
+}
+
+void BayesianOptimizer::propose(const Dataset& data) {
   const double y_best = data.y.minCoeff();
   auto rng = rng_for(observations_.size(), kTellPurpose);
   if (options_.acquisition == Acquisition::kHedge) {
@@ -292,6 +300,51 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vect
   }
   gp_ = fitted;
   return out;
+}
+
+ModelState BayesianOptimizer::model_state() const {
+  ModelState s;
+  s.observations = static_cast<int>(observations_.size());
+  s.fits = fits_;
+  s.have_hyperparameters = have_hyper_;
+  if (have_hyper_) s.hyperparameters = last_hyper_.pack();
+  s.hedge_gains = hedge_.gains;
+  return s;
+}
+
+BayesianOptimizer BayesianOptimizer::restore(SearchSpace space, OptimizerOptions options,
+                                             const std::vector<Observation>& observations, const ModelState& state) {
+  if (state.observations < 0 || state.observations > static_cast<int>(observations.size())) {
+    throw InputError(fmt::format("model state of {} observations does not fit {} stored observations", state.observations,
+                                 observations.size()));
+  }
+  BayesianOptimizer opt(std::move(space), options);
+  if (state.have_hyperparameters && state.hyperparameters.size() != opt.space_.size() + 2) {
+    throw InputError(fmt::format("model state has {} hyperparameters, a {}-dimensional space needs {}",
+                                 state.hyperparameters.size(), opt.space_.size(), opt.space_.size() + 2));
+  }
+  for (int i = 0; i < state.observations; ++i) {
+    opt.space_.check_point(observations[i].x);
+    opt.observations_.push_back(observations[i]);  // no refit: the state says what the fits gave
+  }
+  opt.fits_ = state.fits;
+  opt.have_hyper_ = state.have_hyperparameters;
+  if (opt.have_hyper_) opt.last_hyper_ = GpHyperparameters::unpack(state.hyperparameters);
+  opt.hedge_.gains = state.hedge_gains;
+  if (opt.model_due() && opt.have_hyper_) {
+    // The GP the last fit left, factorised once with its hyperparameters (no optimisation), and the
+    // proposals computed from it with the same seeded generator as then.
+    const Dataset data = opt.dataset();
+    std::mt19937_64 unused(0);
+    opt.gp_ = GaussianProcess(opt.options_.gp);
+    opt.gp_.fit(data.X, data.y, /*optimise=*/false, unused, &opt.last_hyper_);
+    opt.propose(data);
+  }
+  for (std::size_t i = state.observations; i < observations.size(); ++i) {
+    if (observations[i].failed) opt.tell_failure(observations[i].x);
+    else opt.tell(observations[i].x, observations[i].y);
+  }
+  return opt;
 }
 
 BayesianOptimizer BayesianOptimizer::rebuild(SearchSpace space, OptimizerOptions options,

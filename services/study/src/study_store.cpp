@@ -101,6 +101,9 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
              issued_at REAL NOT NULL, reported_at REAL NOT NULL DEFAULT 0,
              ok INTEGER NOT NULL DEFAULT 0, cost REAL NOT NULL DEFAULT 0, report_json TEXT NOT NULL DEFAULT 'null',
              PRIMARY KEY(study_id, trial_id)))");
+    exec(R"(CREATE TABLE IF NOT EXISTS model_states(
+             study_id INTEGER PRIMARY KEY REFERENCES studies(study_id),
+             state_json TEXT NOT NULL))");
   } catch (const std::exception& e) {
     sqlite3_close(db_);
     db_ = nullptr;
@@ -161,6 +164,11 @@ bool StudyStore::complete_trial(int study_id, int trial_id, bool ok, double cost
   return sqlite3_changes(db_) == 1;
 }
 
+void StudyStore::save_model_state(int study_id, const nlohmann::json& state) {
+  Statement s(db_, "INSERT OR REPLACE INTO model_states(study_id, state_json) VALUES(?, ?)");
+  s.bind(1, study_id).bind(2, state.dump()).run();
+}
+
 std::vector<StoredStudy> StudyStore::load_all() const {
   std::vector<StoredStudy> out;
   {
@@ -184,9 +192,19 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     const int study_id = s.column_int(0);
     while (k < out.size() && out[k].study_id != study_id) ++k;
     if (k == out.size()) throw std::runtime_error(fmt::format("study store {}: trial of unknown study {}", path_, study_id));
+    if (!out[k].load_error.empty()) continue;
     StoredTrial t;
     t.trial_id = s.column_int(1);
-    t.x = json_vector(nlohmann::json::parse(s.column_text(2)));
+    // A row that does not parse spoils its own study, not the store: the study is returned with the
+    // reason, for the service to mark it failed, and every other study loads as usual.
+    try {
+      t.x = json_vector(nlohmann::json::parse(s.column_text(2)));
+      t.report = nlohmann::json::parse(s.column_text(10));
+    } catch (const std::exception& e) {
+      out[k].load_error = fmt::format("trial {}: unreadable row ({})", t.trial_id, e.what());
+      out[k].trials.clear();
+      continue;
+    }
     t.status = s.column_text(3) == "done" ? TrialStatus::kDone : TrialStatus::kInFlight;
     t.attempt = s.column_int(4);
     t.worker_id = s.column_text(5);
@@ -194,8 +212,13 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     t.reported_at_s = s.column_double(7);
     t.ok = s.column_int(8) != 0;
     t.cost = s.column_double(9);
-    t.report = nlohmann::json::parse(s.column_text(10));
     out[k].trials.push_back(std::move(t));
+  }
+  Statement m(db_, "SELECT study_id, state_json FROM model_states");
+  while (m.step()) {
+    for (auto& st : out) {
+      if (st.study_id == m.column_int(0)) st.model_state = nlohmann::json::parse(m.column_text(1), nullptr, false);
+    }
   }
   return out;
 }

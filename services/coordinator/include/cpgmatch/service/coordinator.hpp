@@ -111,7 +111,14 @@ class Coordinator {
   void unassign(Study& study, int trial_id, const std::string& why);
   void fill_free_slots(double now_s);
   void issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue);
+  // A new report: told to the optimizer (whose state is then saved), then accounted.
   void count_report(Study& study, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& report);
+  // Counters and best of a report the optimizer already holds (a restart's replay).
+  void account_report(Study& study, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& report);
+  // The study's optimizer from its stored observations: restored from the saved model state (one
+  // factorisation), or replayed observation by observation when there is none.
+  bo::BayesianOptimizer restored_optimizer(const Study& study, const study::StoredStudy* stored,
+                                           const std::vector<bo::Observation>& observations) const;
   void finish_if_complete(Study& study);
   msg::Candidate make_candidate(const Study& study, int trial_id, const InFlight& f) const;
   msg::TrialRecord make_trial_record(const Study& study, int trial_id, const Eigen::VectorXd& x,

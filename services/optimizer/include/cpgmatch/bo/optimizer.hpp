@@ -72,6 +72,16 @@ struct HedgeState {
   double eta = 1.0;
 };
 
+// What a BayesianOptimizer learned beyond its observations, after its latest fit: with the observations
+// it restores the optimizer exactly (restore()), without refitting once per observation.
+struct ModelState {
+  int observations = 0;                 // how many observations this state belongs to
+  int fits = 0;                         // hyperparameter fits so far (sets when random restarts happen)
+  bool have_hyperparameters = false;
+  Eigen::VectorXd hyperparameters;      // GpHyperparameters::pack() of the latest fit
+  Eigen::Vector3d hedge_gains = Eigen::Vector3d::Zero();
+};
+
 class BayesianOptimizer {
  public:
   BayesianOptimizer(SearchSpace space, OptimizerOptions options);
@@ -92,9 +102,18 @@ class BayesianOptimizer {
   const GaussianProcess& model() const { return gp_; }
   bool model_ready() const { return gp_.fitted() && !next_proposals_.empty(); }
 
-  // Replays `observations` through tell(); the result proposes exactly what the original would.
+  // Replays `observations` through tell(); the result proposes exactly what the original would, at the
+  // price of one hyperparameter fit per observation after the initial design.
   static BayesianOptimizer rebuild(SearchSpace space, OptimizerOptions options,
                                    const std::vector<Observation>& observations);
+
+  ModelState model_state() const;
+  // The same optimizer as rebuild(), but from a saved ModelState of the first state.observations
+  // observations: one factorisation with the saved hyperparameters instead of a fit per observation; the
+  // observations after those (a state saved a little earlier) are told normally. Throws InputError when
+  // the state does not fit the observations (more observations than given, wrong dimension).
+  static BayesianOptimizer restore(SearchSpace space, OptimizerOptions options,
+                                   const std::vector<Observation>& observations, const ModelState& state);
 
  private:
   struct Dataset {
@@ -104,6 +123,9 @@ class BayesianOptimizer {
   Dataset dataset() const;
   void record(Observation obs);
   void refit();
+  // The end of a refit, once the GP is fitted: the next proposal of every acquisition.
+  void propose(const Dataset& data);
+  bool model_due() const;  // enough observations for the model (the condition under which record() refits)
   std::mt19937_64 rng_for(std::uint64_t counter, std::uint64_t purpose) const;
   // Minimises each acquisition over the unit cube on the current GP. The random candidates and their
   // posterior are computed once and shared; each acquisition then refines its own best candidates.

@@ -30,7 +30,7 @@ struct StoredTrial {
   int attempt = 0;
   std::string worker_id;           // the worker it is (or was last) assigned to
   double issued_at_s = 0.0;        // Unix time of the last issue
-  double reported_at_s = 0.0;
+  double reported_at_s = 0.0;      // Unix time the report was stored: the order reports were told in
   bool ok = false;                 // done: the rollout ran (a fall is ok)
   double cost = 0.0;
   nlohmann::json report;           // done: the full report
@@ -45,6 +45,8 @@ struct StoredStudy {
   std::string message;
   double created_at_s = 0.0;
   std::vector<StoredTrial> trials; // by trial_id
+  nlohmann::json model_state;      // the optimizer's saved state (null: none saved, e.g. an older store)
+  std::string load_error;          // non-empty: a row of this study could not be read (its trials are incomplete)
 };
 
 class StudyStore {
@@ -65,6 +67,10 @@ class StudyStore {
   // Marks an in-flight trial done with its report. False (and no change) when it was already done:
   // that is how a late duplicate report is never counted twice.
   bool complete_trial(int study_id, int trial_id, bool ok, double cost, const nlohmann::json& report, double now_s);
+
+  // Replaces the study's saved optimizer state (see bo::ModelState): what a restart needs besides the
+  // observations to resume exactly, without refitting the model once per stored result.
+  void save_model_state(int study_id, const nlohmann::json& state);
 
   std::vector<StoredStudy> load_all() const;
   std::optional<StoredStudy> load(int study_id) const;
