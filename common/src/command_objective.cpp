@@ -3,6 +3,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <sys/wait.h>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -38,6 +39,7 @@ EvaluationOutcome run_command_objective(const std::string& command, const std::s
     out.message = fmt::format("cannot create pipes: {}", std::strerror(errno));
     return out;
   }
+  const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) {
     out.message = fmt::format("cannot fork: {}", std::strerror(errno));
@@ -46,6 +48,9 @@ EvaluationOutcome run_command_objective(const std::string& command, const std::s
   if (pid == 0) {
     // Child: stdin from the parent's JSON, stdout to the parent; stderr passes through for diagnostics.
     setpgid(0, 0);  // own process group, so a timeout kills the whole pipeline
+    // A rollout is worthless once its worker is gone (even SIGKILLed): do not run on as an orphan.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(1);
     dup2(in_pipe[0], STDIN_FILENO);
     dup2(out_pipe[1], STDOUT_FILENO);
     close(in_pipe[0]);

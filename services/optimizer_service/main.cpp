@@ -20,6 +20,7 @@
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/study/store_lock.hpp"
 #include "event_queue.hpp"
 
 namespace cpgmatch::service {
@@ -60,6 +61,7 @@ class DdsOutbox final : public Outbox {
 int run(int domain, const std::string& store_path, bool full_durability, double worker_timeout_s, bool localhost_only) {
   dds::validate_domain(domain);
   if (worker_timeout_s <= 0.0) throw InputError("--worker-timeout must be > 0");
+  const study::StoreLock lock(store_path);  // before the store is touched: one optimizer per store
   study::StudyStore store(store_path, full_durability ? study::Durability::kFull : study::Durability::kNormal);
   service::CoordinatorOptions options;
   options.worker_timeout_s = worker_timeout_s;

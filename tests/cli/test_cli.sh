@@ -21,6 +21,11 @@ check "unknown parameter" expect_exit 2 "hip_ofset" "$bin" rollout --set hip_ofs
 check "out of range" expect_exit 2 "duty_factor_front" "$bin" rollout --set duty_factor_front=0.95
 check "nan value" expect_exit 2 "finite" "$bin" rollout --set overswing=nan
 check "bad terrain" expect_exit 2 "terrain" "$bin" rollout --terrain hills
+check "entrain too long" expect_exit 2 "\-\-entrain" "$bin" rollout --entrain 1e12
+check "eval nan" expect_exit 2 "\-\-eval" "$bin" rollout --eval nan
+check "eval negative" expect_exit 2 "\-\-eval" "$bin" rollout --eval -1
+check "treadmill nan" expect_exit 2 "\-\-treadmill" "$bin" rollout --treadmill nan
+check "seed negative" expect_exit 2 "\-\-seed" "$bin" rollout --seed -1
 printf 'hip_offset: 0.1\nduty_factor_hind: [1, 2]\n' >"$tmp/p.yaml"
 check "malformed params file names file:line" expect_exit 2 "p.yaml:2" "$bin" rollout --params "$tmp/p.yaml"
 printf 'hip_offset: 0.1\n  bad: : indent\n' >"$tmp/broken.yaml"
@@ -73,6 +78,12 @@ bindir="$(dirname "$bin")"
 check "worker --slots 0" expect_exit 2 "\-\-slots" "$bindir/cpgmatch-sim-worker" --slots 0
 check "worker --id too long" expect_exit 2 "\-\-id" "$bindir/cpgmatch-sim-worker" --id "$(printf 'w%.0s' {1..80})"
 check "optimizer --domain 999" expect_exit 2 "domain" "$bindir/cpgmatch-optimizer" --domain 999 --store "$tmp/x.db"
+"$bindir/cpgmatch-optimizer" --domain 94 --store "$tmp/locked.db" --localhost-only >"$tmp/first.log" 2>&1 &
+first=$!
+for _ in $(seq 50); do [ -f "$tmp/locked.db.lock" ] && break; sleep 0.1; done
+check "second optimizer on one store" expect_exit 2 "already in use" "$bindir/cpgmatch-optimizer" --domain 95 --store "$tmp/locked.db"
+kill "$first"; wait "$first" 2>/dev/null
+check "store created 0600" test "$(stat -c %a "$tmp/locked.db")" = 600
 check "optimizer bad --log-level" expect_exit 2 "log-level" "$bindir/cpgmatch-optimizer" --log-level loud
 check "CPGMATCH_DOMAIN not a number" expect_exit 2 "CPGMATCH_DOMAIN" env CPGMATCH_DOMAIN=abc "$bin" status
 check "submit a missing file" expect_exit 2 "nope.yaml" "$bin" study submit --config "$tmp/nope.yaml" --domain 90

@@ -1,6 +1,7 @@
 #include "child_process.hpp"
 
 #include <fcntl.h>
+#include <sys/prctl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -24,12 +25,17 @@ ChildProcess::ChildProcess(const std::vector<std::string>& argv, const std::stri
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
+  const pid_t parent = getpid();
   pid_ = fork();
   if (pid_ < 0) {
     ::close(log);
     throw std::runtime_error(fmt::format("fork: {}", std::strerror(errno)));
   }
   if (pid_ == 0) {
+    // Die with the parent, even when it is SIGKILLed and cannot stop us: a study's optimizer and workers
+    // must not run on as orphans. (Checked again after setting it, in case the parent died in between.)
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != parent) _exit(1);
     dup2(log, STDOUT_FILENO);
     dup2(log, STDERR_FILENO);
     const int null = ::open("/dev/null", O_RDONLY);

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
+#include "flag_checks.hpp"
 #include "commands.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "rollout_json.hpp"
@@ -55,12 +56,15 @@ void add_rollout_command(CLI::App& app) {
   cmd->add_option("--settings", opts->settings_file, "rollout settings YAML (default: configs/rollout.yaml)");
   cmd->add_option("--model", opts->model_file, "robot model YAML (default: configs/model/morti.yaml)");
   cmd->add_option("--terrain", opts->terrain, "flat | step:HEIGHT@DISTANCE | rough:AMPLITUDE (metres)");
-  cmd->add_option("--seed", opts->seed, "seed for terrain roughness and sensor noise");
+  cmd->add_option("--seed", opts->seed, "seed for terrain roughness and sensor noise")->check(whole_non_negative());
   cmd->add_flag("--no-feedback", opts->no_feedback, "switch off all feedback mechanisms (ablation)");
   cmd->add_option("--disable", opts->disable, "switch off one mechanism: ltd, etd, eto (repeatable)");
-  cmd->add_option("--entrain", opts->entrain_s, "entrainment time, seconds");
-  cmd->add_option("--eval", opts->eval_s, "evaluation time, seconds");
-  cmd->add_option("--treadmill", opts->treadmill_mps, "treadmill belt speed, m/s (0 = fixed ground)");
+  // Bounds: a rollout longer than an hour of simulated time is a typo, not an experiment; a belt beyond
+  // 5 m/s is ten times the robot's top speed.
+  cmd->add_option("--entrain", opts->entrain_s, "entrainment time, seconds")->check(finite_in(0.0, 3600.0, "s"));
+  cmd->add_option("--eval", opts->eval_s, "evaluation time, seconds")->check(finite_in(0.01, 3600.0, "s"));
+  cmd->add_option("--treadmill", opts->treadmill_mps, "treadmill belt speed, m/s (0 = fixed ground)")
+      ->check(finite_in(-5.0, 5.0, "m/s"));
   cmd->add_option("--trace", opts->trace_file, "write the time series to this CSV file");
   cmd->add_flag("--json", opts->json, "print exactly one JSON object");
   cmd->callback([opts] {

@@ -1,5 +1,8 @@
 #include "cpgmatch/study/study_store.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <sqlite3.h>
 
 #include <stdexcept>
@@ -76,6 +79,9 @@ Eigen::VectorXd json_vector(const nlohmann::json& a) {
 std::string to_string(TrialStatus s) { return s == TrialStatus::kDone ? "done" : "in_flight"; }
 
 StudyStore::StudyStore(const std::string& path, Durability durability) : path_(path) {
+  // A new store is readable by its owner only (it holds every study and report); SQLite gives its -wal
+  // and -shm files the same mode. An existing store keeps the mode its owner gave it.
+  if (const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0600); fd >= 0) ::close(fd);
   if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
                       nullptr) != SQLITE_OK) {
     const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
@@ -146,7 +152,9 @@ void StudyStore::add_trials(int study_id, const std::vector<StoredTrial>& trials
     }
     exec("COMMIT");
   } catch (...) {
-    exec("ROLLBACK");
+    // On a full disk SQLite may already have rolled the transaction back itself; a second ROLLBACK then
+    // fails with "no transaction is active" and would hide the real cause. Try it, keep the first error.
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
     throw;
   }
 }

@@ -1,0 +1,43 @@
+// Range checks for numeric flags. CLI11's Range lets NaN through (every comparison with NaN is false), so
+// a rollout could run with `--treadmill nan` and "fall"; these refuse non-finite values as well.
+#pragma once
+
+#include <cmath>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+namespace cpgmatch::cli {
+
+// A finite number in [low, high] (with its unit in the message).
+inline CLI::Validator finite_in(double low, double high, const std::string& unit) {
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        double v = 0.0;
+        try {
+          std::size_t used = 0;
+          v = std::stod(text, &used);
+          if (used != text.size()) return fmt::format("'{}' is not a number", text);
+        } catch (const std::exception&) {
+          return fmt::format("'{}' is not a number", text);
+        }
+        if (!std::isfinite(v) || v < low || v > high) return fmt::format("{} must be in [{}, {}] {}", text, low, high, unit);
+        return "";
+      },
+      fmt::format("in [{}, {}] {}", low, high, unit));
+}
+
+// A whole number >= 0 (for seeds: "-1" must not wrap around to 2^64 - 1).
+inline CLI::Validator whole_non_negative() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) {
+          return fmt::format("'{}' must be a whole number >= 0", text);
+        }
+        return "";
+      },
+      "whole number >= 0");
+}
+
+}  // namespace cpgmatch::cli
