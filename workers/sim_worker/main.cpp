@@ -16,6 +16,7 @@
 #include <iterator>
 #include <mutex>
 #include <set>
+#include <tuple>
 #include <thread>
 
 #include <CLI/CLI.hpp>
@@ -80,8 +81,10 @@ class SimWorker {
   void accept(const msg::Candidate& c) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (draining_) return;  // the optimizer re-issues it once we have left
-    const auto key = std::make_pair(c.study_id(), c.trial_id());
-    if (!known_.insert(key).second) return;  // a re-issue of a trial we already run or ran
+    // Dropped only while the very same issue (study, trial, attempt) is queued or running: DDS may deliver
+    // a sample twice. A re-issue (a higher attempt, e.g. after our report was lost) runs again, and so does
+    // a trial of a fresh store that reuses ids we saw long ago. The optimizer counts each trial once anyway.
+    if (!in_progress_.insert(issue_key(c)).second) return;
     queue_.push_back(c);
     wake_.notify_all();
   }
@@ -101,6 +104,7 @@ class SimWorker {
       if (!report.ok()) spdlog::warn("study {} trial {}: {}", c.study_id(), c.trial_id(), report.error().to_string());
       std::lock_guard<std::mutex> lock(mutex_);
       if (!reports_.write(report)) spdlog::error("study {} trial {}: report write failed", c.study_id(), c.trial_id());
+      in_progress_.erase(issue_key(c));
       kept_.push_back(report);
       if (kept_.size() > kReportsKept) {
         reports_.unregister(kept_.front());
@@ -158,7 +162,9 @@ class SimWorker {
   std::mutex mutex_;
   std::condition_variable wake_;
   std::deque<msg::Candidate> queue_;
-  std::set<std::pair<std::uint32_t, std::uint32_t>> known_;
+  using IssueKey = std::tuple<std::uint32_t, std::uint32_t, std::uint32_t>;  // study, trial, attempt
+  static IssueKey issue_key(const msg::Candidate& c) { return {c.study_id(), c.trial_id(), c.attempt()}; }
+  std::set<IssueKey> in_progress_;  // queued or running: bounded by the slots and the queue
   std::deque<msg::RolloutReport> kept_;
   int busy_ = 0;
   std::uint64_t completed_ = 0;
