@@ -29,8 +29,9 @@ namespace {
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
 
-double unix_now_s() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+// Monotonic: the coordinator's timeouts and leases run on it (the store gets Unix time separately).
+double monotonic_now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
 struct WorkerGone {
@@ -72,7 +73,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   service::Coordinator coordinator(
       store, outbox, options, [](const std::string& m) { spdlog::info("{}", m); },
       [](const std::string& m) { spdlog::warn("{}", m); });
-  coordinator.resume_from_store(unix_now_s());
+  coordinator.resume_from_store(monotonic_now_s());
 
   service::EventQueue<Event> queue;
   dds::Reader<msg::StudyCommand> commands(participant, [&](const msg::StudyCommand& c) { queue.push(c); });
@@ -84,7 +85,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
 
   while (!g_stop) {
     for (auto& event : queue.drain(std::chrono::milliseconds(20))) {
-      const double now = unix_now_s();
+      const double now = monotonic_now_s();
       try {
         std::visit(
             [&](auto& e) {
@@ -100,7 +101,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
         spdlog::error("event dropped: {}", e.what());
       }
     }
-    coordinator.tick(unix_now_s());
+    coordinator.tick(monotonic_now_s());
   }
   spdlog::info("optimizer stopping; every study is in {}", store_path);
   return kExitOk;

@@ -46,7 +46,9 @@ class CoordinatorTest : public ::testing::Test {
     coordinator_.reset();
     store_ = std::make_unique<study::StudyStore>(path_);
     out_ = RecordingOutbox{};
-    coordinator_ = std::make_unique<Coordinator>(*store_, out_, CoordinatorOptions{}, [](const std::string&) {},
+    CoordinatorOptions options;
+    options.wall_clock_s = [this] { return wall_; };
+    coordinator_ = std::make_unique<Coordinator>(*store_, out_, options, [](const std::string&) {},
                                                  [this](const std::string& m) { warnings_.push_back(m); });
   }
   int submit(int budget, int initial) {
@@ -93,7 +95,8 @@ class CoordinatorTest : public ::testing::Test {
   std::vector<std::string> warnings_;
   std::size_t answered_ = 0;
   std::uint64_t correlation_ = 0;
-  double now_ = 1000.0;
+  double now_ = 1000.0;       // monotonic time handed to the coordinator
+  double wall_ = 1.7e9;       // the wall clock it writes to the store
 };
 
 TEST_F(CoordinatorTest, FillsEveryFreeSlotAndFinishesWithExactlyTheBudget) {
@@ -280,6 +283,26 @@ TEST_F(CoordinatorTest, AStudyThatCannotBeReopenedIsMarkedFailedAndTheOthersAreS
     answer_all();
   }
   EXPECT_EQ(store_->load(good)->state, "done");
+}
+
+TEST_F(CoordinatorTest, SteppingTheWallClockNeitherDropsWorkersNorFiresLeases) {
+  const int id = submit(4, 4);
+  worker("a", 2);
+  coordinator_->tick(now_ += 0.1);
+  ASSERT_EQ(out_.candidates.size(), 2u);
+  for (const double step : {3600.0, -7200.0}) {  // NTP or a user sets the clock an hour ahead, two back
+    wall_ += step;
+    worker("a", 2);
+    coordinator_->tick(now_ += 0.5);  // half a second of monotonic time: nothing is due
+    EXPECT_EQ(out_.candidates.size(), 2u) << "a re-issue after a wall-clock step of " << step << " s";
+    EXPECT_EQ(out_.states.back().workers(), 1u);
+  }
+  answer_all();
+  const auto s = store_->load(id);
+  ASSERT_TRUE(s);
+  for (const auto& t : s->trials) {
+    if (t.status == study::TrialStatus::kDone) EXPECT_DOUBLE_EQ(t.reported_at_s, wall_);  // Unix time in the store
+  }
 }
 
 TEST_F(CoordinatorTest, BadCommandsAreRefusedWithTheReason) {

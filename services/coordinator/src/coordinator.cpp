@@ -1,3 +1,5 @@
+#include <chrono>
+
 #include "cpgmatch/seeds.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 
@@ -73,6 +75,11 @@ bool Coordinator::idle() const {
 
 // ---- studies -------------------------------------------------------------------------------------
 
+double Coordinator::wall_now() const {
+  if (options_.wall_clock_s) return options_.wall_clock_s();
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
 void Coordinator::resume_from_store(double now_s) {
   for (const study::StoredStudy& stored : store_.load_all()) {
     Study s;
@@ -122,9 +129,10 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
       }
     }
   }
-  // The optimizer was told the reports in the order they were stored, which with parallel workers is not
-  // the trial order: replay them in that order (trial id breaks ties).
+  // The optimizer was told the reports in the order they were counted, which with parallel workers is
+  // not the trial order: replay them in that order (report_seq; stores older than it: report time).
   std::stable_sort(done.begin(), done.end(), [](const study::StoredTrial* a, const study::StoredTrial* b) {
+    if (a->report_seq != b->report_seq) return a->report_seq < b->report_seq;
     return a->reported_at_s != b->reported_at_s ? a->reported_at_s < b->reported_at_s : a->trial_id < b->trial_id;
   });
   std::vector<bo::Observation> observations;
@@ -185,8 +193,8 @@ void Coordinator::submit(const msg::StudyCommand& command, double now_s, msg::Co
   Study s;
   s.name = config.name;
   s.config = std::move(config);
-  s.created_at_s = now_s;
-  s.id = store_.create_study(s.name, command.study_yaml(), source, now_s);
+  s.created_at_s = wall_now();
+  s.id = store_.create_study(s.name, command.study_yaml(), source, s.created_at_s);
   const int id = s.id;
   info_(fmt::format("study {} '{}' submitted: budget {}, {} parameters", id, s.name, s.config.budget,
                     s.config.space.size()));
@@ -327,7 +335,7 @@ void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s
   InFlight& f = study.in_flight.at(trial_id);
   if (reissue) {
     ++f.attempt;
-    store_.reissue(study.id, trial_id, f.attempt, worker.id, now_s);
+    store_.reissue(study.id, trial_id, f.attempt, worker.id, wall_now());
   }
   f.worker_id = worker.id;
   f.deadline_s = now_s + study.config.effective_lease_s();
@@ -389,7 +397,7 @@ void Coordinator::fill_free_slots(double now_s) {
       t.trial_id = s->next_trial_id++;
       t.x = x;
       t.worker_id = slots[next_slot + stored.size()]->id;
-      t.issued_at_s = now_s;
+      t.issued_at_s = wall_now();
       stored.push_back(std::move(t));
     }
     store_.add_trials(s->id, stored);  // committed before anything is published
@@ -421,7 +429,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
     return reject(what, fmt::format("attempt {} was never issued (last: {})", r.attempt(), it->second.attempt));
   }
   const Eigen::VectorXd x = it->second.x;
-  if (!store_.complete_trial(s->id, trial_id, r.ok(), r.ok() ? r.cost() : 0.0, dds::to_json(r), now_s)) {
+  if (!store_.complete_trial(s->id, trial_id, r.ok(), r.ok() ? r.cost() : 0.0, dds::to_json(r), wall_now())) {
     info_(fmt::format("ignored a duplicate {} (already in the store)", what));
     return;
   }
@@ -511,7 +519,7 @@ void Coordinator::publish_state(Study& s, double now_s) {
   st.best_params(dds::to_wire(s.best_params));
   st.best_normalized_torque(s.best_normalized_torque);
   st.best_speed_mps(s.best_speed_mps);
-  st.elapsed_s(now_s - s.created_at_s);
+  st.elapsed_s(wall_now() - s.created_at_s);
   const double session = now_s - s.session_start_s;
   st.rollouts_per_s(session > 0.0 ? (s.completed - s.completed_at_session_start) / session : 0.0);
   st.message(s.message);

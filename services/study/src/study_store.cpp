@@ -107,6 +107,7 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
              issued_at REAL NOT NULL, reported_at REAL NOT NULL DEFAULT 0,
              ok INTEGER NOT NULL DEFAULT 0, cost REAL NOT NULL DEFAULT 0, report_json TEXT NOT NULL DEFAULT 'null',
              PRIMARY KEY(study_id, trial_id)))");
+    add_column_if_missing("trials", "report_seq", "INTEGER NOT NULL DEFAULT 0");
     exec(R"(CREATE TABLE IF NOT EXISTS model_states(
              study_id INTEGER PRIMARY KEY REFERENCES studies(study_id),
              state_json TEXT NOT NULL))");
@@ -118,6 +119,16 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
 }
 
 StudyStore::~StudyStore() { sqlite3_close(db_); }
+
+void StudyStore::add_column_if_missing(const std::string& table, const std::string& column,
+                                       const std::string& declaration) {
+  // Stores written by an older cpgmatch lack newer columns; SQLite adds them in place.
+  Statement info(db_, fmt::format("PRAGMA table_info({})", table).c_str());
+  while (info.step()) {
+    if (info.column_text(1) == column) return;
+  }
+  exec(fmt::format("ALTER TABLE {} ADD COLUMN {} {}", table, column, declaration));
+}
 
 void StudyStore::exec(const std::string& sql) const {
   char* error = nullptr;
@@ -166,8 +177,11 @@ void StudyStore::reissue(int study_id, int trial_id, int attempt, const std::str
 
 bool StudyStore::complete_trial(int study_id, int trial_id, bool ok, double cost, const nlohmann::json& report,
                                 double now_s) {
-  Statement s(db_, R"(UPDATE trials SET status = 'done', ok = ?, cost = ?, report_json = ?, reported_at = ?
-                      WHERE study_id = ? AND trial_id = ? AND status = 'in_flight')");
+  // report_seq numbers a study's reports in the order they were counted (and told to its optimizer):
+  // the order a restart replays them in, whatever the wall clock did meanwhile.
+  Statement s(db_, R"(UPDATE trials SET status = 'done', ok = ?, cost = ?, report_json = ?, reported_at = ?,
+                      report_seq = (SELECT COALESCE(MAX(report_seq), 0) + 1 FROM trials WHERE study_id = ?5)
+                      WHERE study_id = ?5 AND trial_id = ? AND status = 'in_flight')");
   s.bind(1, ok ? 1 : 0).bind(2, cost).bind(3, report.dump()).bind(4, now_s).bind(5, study_id).bind(6, trial_id).run();
   return sqlite3_changes(db_) == 1;
 }
@@ -194,7 +208,7 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     }
   }
   Statement s(db_, R"(SELECT study_id, trial_id, x_json, status, attempt, worker_id, issued_at, reported_at, ok, cost,
-                      report_json FROM trials ORDER BY study_id, trial_id)");
+                      report_json, report_seq FROM trials ORDER BY study_id, trial_id)");
   std::size_t k = 0;
   while (s.step()) {
     const int study_id = s.column_int(0);
@@ -220,6 +234,7 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     t.reported_at_s = s.column_double(7);
     t.ok = s.column_int(8) != 0;
     t.cost = s.column_double(9);
+    t.report_seq = s.column_int(11);
     out[k].trials.push_back(std::move(t));
   }
   Statement m(db_, "SELECT study_id, state_json FROM model_states");

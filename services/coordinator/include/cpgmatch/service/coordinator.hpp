@@ -43,6 +43,10 @@ struct CoordinatorOptions {
   double worker_timeout_s = 2.5;       // no announcement for this long: the worker is gone
   int max_consecutive_failures = 10;   // rollouts that could not run in a row before a study fails
   CpgParameters base_parameters;       // values of CPG parameters a study neither optimises nor fixes
+  // Every `now_s` handed to the coordinator is *monotonic* time (timeouts and leases must not fire, or
+  // hang, when the wall clock is stepped); this clock gives the Unix time written to the store and shown
+  // as a study's age. Empty: the system clock.
+  std::function<double()> wall_clock_s;
 };
 
 using LogFn = std::function<void(const std::string&)>;
@@ -130,6 +134,7 @@ class Coordinator {
   Outbox& out_;
   CoordinatorOptions options_;
   LogFn info_, warn_;
+  double wall_now() const;  // Unix time, for the store
   std::map<int, Study> studies_;
   std::map<std::string, Worker> workers_;
   std::map<int, double> last_state_publish_;

@@ -30,7 +30,8 @@ struct StoredTrial {
   int attempt = 0;
   std::string worker_id;           // the worker it is (or was last) assigned to
   double issued_at_s = 0.0;        // Unix time of the last issue
-  double reported_at_s = 0.0;      // Unix time the report was stored: the order reports were told in
+  double reported_at_s = 0.0;      // Unix time the report was stored
+  int report_seq = 0;              // done: 1, 2, ... in the order reports were counted (0: an older store)
   bool ok = false;                 // done: the rollout ran (a fall is ok)
   double cost = 0.0;
   nlohmann::json report;           // done: the full report
@@ -78,6 +79,7 @@ class StudyStore {
 
  private:
   void exec(const std::string& sql) const;
+  void add_column_if_missing(const std::string& table, const std::string& column, const std::string& declaration);
   std::string path_;
   sqlite3* db_ = nullptr;
 };
