@@ -68,7 +68,16 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   options.worker_timeout_s = worker_timeout_s;
   options.base_parameters = load_parameters(sim::default_params_path());
 
-  dds::Participant participant(dds::ParticipantConfig{domain, "cpgmatch-optimizer", localhost_only});
+  dds::ParticipantConfig dds_config{domain, "cpgmatch-optimizer", localhost_only};
+  // Two optimizers on one domain would both answer commands and publish colliding study ids: say so loudly.
+  dds_config.on_peer_discovered = [domain](const std::string& name) {
+    if (name == "cpgmatch-optimizer") {
+      spdlog::error("another cpgmatch-optimizer joined DDS domain {}: two optimizers on one domain answer the same "
+                    "commands and publish colliding study ids; stop one of them or use another --domain",
+                    domain);
+    }
+  };
+  dds::Participant participant(dds_config);
   DdsOutbox outbox(participant);
   service::Coordinator coordinator(
       store, outbox, options, [](const std::string& m) { spdlog::info("{}", m); },

@@ -68,13 +68,25 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
     qos.wire_protocol().builtin.initialPeersList.clear();
     qos.wire_protocol().builtin.initialPeersList.push_back(peer);
   }
-  participant_ = factory->create_participant(config.domain, qos);
+  peer_listener_.on_peer = config.on_peer_discovered;
+  // StatusMask::none(): the listener takes no data or QoS callbacks from the entities; discovery
+  // callbacks are delivered regardless of the mask.
+  participant_ = config.on_peer_discovered
+                     ? factory->create_participant(config.domain, qos, &peer_listener_, fdds::StatusMask::none())
+                     : factory->create_participant(config.domain, qos);
   if (participant_ == nullptr) {
     throw std::runtime_error(fmt::format("DDS: cannot create a participant on domain {}", config.domain));
   }
   publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
   if (publisher_ == nullptr || subscriber_ == nullptr) throw std::runtime_error("DDS: cannot create publisher/subscriber");
+}
+
+void Participant::PeerListener::on_participant_discovery(eprosima::fastdds::dds::DomainParticipant*,
+                                                         eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
+  if (on_peer && info.status == eprosima::fastrtps::rtps::ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) {
+    on_peer(info.info.m_participantName.to_string());
+  }
 }
 
 Participant::~Participant() {

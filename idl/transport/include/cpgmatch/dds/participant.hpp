@@ -20,6 +20,7 @@
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/DataWriterListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
@@ -39,6 +40,9 @@ struct ParticipantConfig {
   // UDP on 127.0.0.1 only, unicast discovery: a private study on one machine (`study run`, tests).
   // Otherwise Fast DDS's defaults apply, or the XML profile in $FASTRTPS_DEFAULT_PROFILES_FILE.
   bool localhost_only = false;
+  // Called (on a DDS thread) with the name of every remote participant that joins the domain; how the
+  // optimizer notices a second optimizer on its domain.
+  std::function<void(const std::string& name)> on_peer_discovered;
 };
 
 class Participant {
@@ -64,6 +68,12 @@ class Participant {
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
   std::mutex mutex_;
   std::map<TopicId, eprosima::fastdds::dds::Topic*> topics_;
+  struct PeerListener : eprosima::fastdds::dds::DomainParticipantListener {
+    std::function<void(const std::string&)> on_peer;
+    void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
+                                  eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
+  };
+  PeerListener peer_listener_;
 };
 
 // Counts matched remote endpoints, so a client can wait until the service hears it.
