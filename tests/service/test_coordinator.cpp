@@ -305,6 +305,28 @@ TEST_F(CoordinatorTest, SteppingTheWallClockNeitherDropsWorkersNorFiresLeases) {
   }
 }
 
+TEST_F(CoordinatorTest, AHugeWorkerIsFilledOverSeveralTicksAndAnotherWorkersTimeoutIsNotDelayed) {
+  submit(2000, 2000);
+  worker("huge", 512);
+  worker("small", 1);
+  coordinator_->tick(now_ += 0.02);
+  const std::size_t first_tick = out_.candidates.size();
+  EXPECT_EQ(first_tick, static_cast<std::size_t>(CoordinatorOptions{}.max_new_candidates_per_tick));
+  // "small" falls silent; "huge" keeps announcing. Ticks go on filling "huge" meanwhile, and "small" is
+  // dropped as soon as its timeout has passed, not after all 513 slots are filled.
+  bool small_dropped = false;
+  int ticks = 0;
+  for (; ticks < 200 && !small_dropped; ++ticks) {
+    const std::size_t before = out_.candidates.size();
+    worker("huge", 512);
+    coordinator_->tick(now_ += 0.02);
+    EXPECT_LE(out_.candidates.size() - before, 33u) << "tick " << ticks;  // the cap (+1 re-issue)
+    small_dropped = out_.states.back().workers() == 1u;
+  }
+  EXPECT_TRUE(small_dropped);
+  EXPECT_LE(ticks * 0.02, CoordinatorOptions{}.worker_timeout_s + 0.1);
+}
+
 TEST_F(CoordinatorTest, BadCommandsAreRefusedWithTheReason) {
   msg::StudyCommand c;
   c.kind(msg::COMMAND_SUBMIT);

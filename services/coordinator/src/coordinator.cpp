@@ -372,6 +372,7 @@ void Coordinator::fill_free_slots(double now_s) {
   std::rotate(order.begin(), order.begin() + (round_robin_++ % static_cast<int>(order.size())), order.end());
 
   std::size_t next_slot = 0;
+  int new_budget = options_.max_new_candidates_per_tick;  // asks left this tick
   for (Study* s : order) {
     if (s->state != "running") continue;
     // Re-issues first: they are the oldest work.
@@ -380,8 +381,9 @@ void Coordinator::fill_free_slots(double now_s) {
       if (f.worker_id.empty()) issue(*s, trial_id, *slots[next_slot++], now_s, true);
     }
     const int remaining = s->config.budget - s->completed - static_cast<int>(s->in_flight.size());
-    const int n = std::min<int>(remaining, static_cast<int>(slots.size() - next_slot));
+    const int n = std::min({remaining, static_cast<int>(slots.size() - next_slot), new_budget});
     if (n <= 0) continue;
+    new_budget -= n;
     std::vector<Eigen::VectorXd> pending;
     for (const auto& [trial_id, f] : s->in_flight) pending.push_back(f.x);
     std::vector<Eigen::VectorXd> points;

@@ -42,6 +42,10 @@ class Outbox {
 struct CoordinatorOptions {
   double worker_timeout_s = 2.5;       // no announcement for this long: the worker is gone
   int max_consecutive_failures = 10;   // rollouts that could not run in a row before a study fails
+  // New proposals per tick, over all studies. A worker announcing thousands of slots is filled over several
+  // ticks (every 20 ms) instead of one ask() that blocks the event loop for seconds; heartbeats, reports
+  // and commands are served in between.
+  int max_new_candidates_per_tick = 32;
   CpgParameters base_parameters;       // values of CPG parameters a study neither optimises nor fixes
   // Every `now_s` handed to the coordinator is *monotonic* time (timeouts and leases must not fire, or
   // hang, when the wall clock is stepped); this clock gives the Unix time written to the store and shown
