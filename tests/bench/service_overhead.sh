@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Benchmark: what the optimizer service and DDS cost per rollout, with the rollout replaced by a fixed
-# delay (cpgmatch-sim-worker --fake-rollout-ms). Random proposals only (initial_points > budget), so
+# delay (cpgmatch-sim-worker --fake-rollout-ms). Random proposals only (initial_points = budget), so
 # the numbers are transport, store and scheduling, not GP fitting.
 #   1. round trip: one worker, one slot, 0 ms rollouts: candidate issued -> report counted, per trial
 #      (both timestamps taken by the optimizer, SQLite commits included).
@@ -26,9 +26,9 @@ run_study() {  # run_study NAME WORKERS SLOTS DELAY_MS BUDGET -> prints the stor
       --localhost-only --log-level warn 2>>"$work/workers.log" &
     ws+=($!); pids+=($!)
   done
-  # initial_points > budget: every proposal is random and the GP is never fitted (a fit on thousands of
-  # points would measure the GP, not the service).
-  printf 'name: %s\nbudget: %d\ninitial_points: %d\n' "$name" "$n" "$((n + 1))" >"$work/$name.yaml"
+  # initial_points = budget: every proposal is random and the GP is never fitted (the optimizer skips the
+  # fit after the last observation; a fit on thousands of points would measure the GP, not the service).
+  printf 'name: %s\nbudget: %d\ninitial_points: %d\n' "$name" "$n" "$n" >"$work/$name.yaml"
   # Wait until every worker has announced itself, so the run measures the steady state.
   until [[ $("$bin/cpgmatch" workers --json --domain "$domain" --localhost-only --timeout 5 |
              python3 -c 'import json,sys; print(len(json.load(sys.stdin)))') -ge $workers ]]; do sleep 0.2; done

@@ -184,6 +184,20 @@ TEST(Optimizer, RestoringFromASavedModelStateIsExactWithoutRefitting) {
   EXPECT_THROW(BayesianOptimizer::restore(tf.space, o, opt.observations(), too_many), InputError);
 }
 
+TEST(Optimizer, TheLastObservationOfTheBudgetIsNotFittedFor) {
+  const TestFunction tf = test_function("branin");
+  OptimizerOptions o;
+  o.initial_points = 5;
+  o.budget = 8;
+  BayesianOptimizer opt(tf.space, o);
+  for (int i = 0; i < 8; ++i) {
+    const auto x = opt.ask(1)[0];
+    opt.tell(x, tf.f(x));
+    if (i == 6) EXPECT_EQ(opt.model_state().fits, 3);  // fits after observations 5, 6 and 7
+  }
+  EXPECT_EQ(opt.model_state().fits, 3);  // none for the 8th: nothing will be asked any more
+}
+
 TEST(Optimizer, FailedEvaluationsAreKeptAwayFromTheOptimum) {
   const TestFunction tf = test_function("quadratic1d");
   OptimizerOptions o;

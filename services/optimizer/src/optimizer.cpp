@@ -37,6 +37,7 @@ LiarStrategy liar_from_string(std::string_view name) {
 
 void OptimizerOptions::validate() const {
   if (initial_points < 1) throw InputError(fmt::format("initial_points must be >= 1, got {}", initial_points));
+  if (budget < 0) throw InputError(fmt::format("budget must be >= 0 (0: no limit), got {}", budget));
   if (!(xi >= 0.0) || !std::isfinite(xi)) throw InputError("xi must be a finite number >= 0");
   if (!(kappa >= 0.0) || !std::isfinite(kappa)) throw InputError("kappa must be a finite number >= 0");
   if (!(hedge_eta > 0.0) || !std::isfinite(hedge_eta)) throw InputError("hedge_eta must be > 0");
@@ -105,8 +106,11 @@ void BayesianOptimizer::tell_failure(const Eigen::VectorXd& x) {
 }
 
 bool BayesianOptimizer::model_due() const {
-  // The model is first used once the initial design has been evaluated (and needs two real values).
-  return static_cast<int>(observations_.size()) >= options_.initial_points && num_successful() >= 2;
+  // The model is first used once the initial design has been evaluated (and needs two real values), and
+  // is not needed once the budget is spent.
+  const int n = static_cast<int>(observations_.size());
+  if (options_.budget > 0 && n >= options_.budget) return false;
+  return n >= options_.initial_points && num_successful() >= 2;
 }
 
 void BayesianOptimizer::record(Observation obs) {

@@ -40,6 +40,7 @@ StudyConfig parse(const YamlReader& r) {
   if (const auto problem = name_problem(s.name, kMaxStudyNameBytes)) r.fail("name", *problem);
   s.budget = r.get_int_in("budget", s.budget, 1, kMaxBudget);
   s.optimizer.initial_points = r.get_int_in("initial_points", 15, 1, s.budget);
+  s.optimizer.budget = s.budget;
   try {
     s.optimizer.acquisition = bo::acquisition_from_string(r.get_string("acquisition", "gp_hedge"));
   } catch (const InputError& e) {

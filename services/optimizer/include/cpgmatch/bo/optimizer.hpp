@@ -55,6 +55,9 @@ struct OptimizerOptions {
   // Hyperparameters: warm-started L-BFGS at every fit; random restarts at every k-th fit as well.
   int hyperparameter_restart_every = 10;
   int hyperparameter_warm_evaluations = 20;  // L-BFGS budget of a warm-started fit (restart fits: gp.max_evaluations)
+  // Observations after which no more points will be asked for (a study's budget; 0: no limit). The model
+  // is not refitted for the last one: a fit nobody will ask is pure cost (minutes on thousands of points).
+  int budget = 0;
 
   // Throws InputError naming the first invalid field.
   void validate() const;
