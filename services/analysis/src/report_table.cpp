@@ -109,8 +109,9 @@ std::string format_table(const ScienceReport& r) {
                        paper.is_null() ? "" : format_value(paper, row.decimals));
   }
   if (!r.best_params.empty()) {
-    out += "best parameters:";
-    for (const auto& [k, v] : r.best_params) out += fmt::format(" {}={:.4f}", k, v);
+    // The study's answer (best_params.yaml): the recommendation when there is one.
+    out += r.recommendation ? "recommended parameters:" : "best parameters:";
+    for (const auto& [k, v] : answer_params(r)) out += fmt::format(" {}={:.4f}", k, v);
     out += "\n";
   }
   return out;
