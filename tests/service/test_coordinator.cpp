@@ -327,6 +327,25 @@ TEST_F(CoordinatorTest, AHugeWorkerIsFilledOverSeveralTicksAndAnotherWorkersTime
   EXPECT_LE(ticks * 0.02, CoordinatorOptions{}.worker_timeout_s + 0.1);
 }
 
+TEST_F(CoordinatorTest, TheStudyStateCarriesTheModelsRecommendation) {
+  one_slot_study(40, 0);  // 30 random points, then 10 model proposals
+  const msg::StudyState& st = out_.states.back();
+  ASSERT_TRUE(st.has_recommendation());
+  const auto stored = store_->load(static_cast<int>(st.study_id()));
+  ASSERT_TRUE(stored);
+  const auto& trial = stored->trials.at(st.recommended_trial());
+  EXPECT_EQ(trial.status, study::TrialStatus::kDone);
+  // Its parameters are that trial's, and its predicted cost is within the observed range.
+  const auto named = dds::from_wire(st.recommended_params());
+  EXPECT_FALSE(named.empty());
+  double lo = INFINITY, hi = -INFINITY;
+  for (const auto& t : stored->trials) {
+    if (t.status == study::TrialStatus::kDone) lo = std::min(lo, t.cost), hi = std::max(hi, t.cost);
+  }
+  EXPECT_GE(st.recommended_predicted_cost(), lo - 0.5);
+  EXPECT_LE(st.recommended_predicted_cost(), hi);
+}
+
 TEST_F(CoordinatorTest, BadCommandsAreRefusedWithTheReason) {
   msg::StudyCommand c;
   c.kind(msg::COMMAND_SUBMIT);

@@ -136,7 +136,10 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     return a->reported_at_s != b->reported_at_s ? a->reported_at_s < b->reported_at_s : a->trial_id < b->trial_id;
   });
   std::vector<bo::Observation> observations;
-  for (const auto* t : done) observations.push_back({t->x, t->cost, !t->ok});
+  for (const auto* t : done) {
+    observations.push_back({t->x, t->cost, !t->ok});
+    s.told_trials.push_back(t->trial_id);
+  }
   s.optimizer = std::make_unique<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
   for (const auto* t : done) {
     const int trial_id = t->trial_id;
@@ -456,6 +459,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
 void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
   if (r.ok()) s.optimizer->tell(x, r.cost());
   else s.optimizer->tell_failure(x);
+  s.told_trials.push_back(trial_id);
   store_.save_model_state(s.id, model_state_json(s.optimizer->model_state()));
   account_report(s, trial_id, x, r);
 }
@@ -525,6 +529,13 @@ void Coordinator::publish_state(Study& s, double now_s) {
   const double session = now_s - s.session_start_s;
   st.rollouts_per_s(session > 0.0 ? (s.completed - s.completed_at_session_start) / session : 0.0);
   st.message(s.message);
+  if (const auto rec = s.optimizer ? s.optimizer->recommended() : std::nullopt) {
+    const Eigen::VectorXd& x = s.optimizer->observations()[rec->observation].x;
+    st.has_recommendation(true);
+    st.recommended_trial(static_cast<std::uint32_t>(s.told_trials.at(rec->observation)));
+    st.recommended_predicted_cost(rec->predicted);
+    st.recommended_params(dds::to_wire(s.config.space.to_named(x)));
+  }
   out_.publish_state(st);
   s.dirty = false;
   last_state_publish_[s.id] = now_s;

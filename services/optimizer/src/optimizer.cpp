@@ -306,6 +306,17 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vect
   return out;
 }
 
+std::optional<BayesianOptimizer::Recommendation> BayesianOptimizer::recommended() const {
+  std::optional<Recommendation> out;
+  for (std::size_t i = 0; i < observations_.size(); ++i) {
+    const Observation& o = observations_[i];
+    if (o.failed) continue;
+    const double value = gp_.fitted() ? gp_.predict(space_.to_unit(o.x)).mean : o.y;
+    if (!out || value < out->predicted) out = Recommendation{i, value};
+  }
+  return out;
+}
+
 ModelState BayesianOptimizer::model_state() const {
   ModelState s;
   s.observations = static_cast<int>(observations_.size());

@@ -90,6 +90,7 @@ class Coordinator {
     study::StudyConfig config;
     std::unique_ptr<bo::BayesianOptimizer> optimizer;
     std::map<int, InFlight> in_flight;   // by trial id
+    std::vector<int> told_trials;        // trial id of each optimizer observation, in the order told
     int next_trial_id = 0;
     int completed = 0, failed = 0, falls = 0, reissued = 0, consecutive_failures = 0;
     std::string state = "running";

@@ -98,6 +98,13 @@ class BayesianOptimizer {
 
   const std::vector<Observation>& observations() const { return observations_; }
   std::optional<Observation> best() const;  // lowest successful y
+  struct Recommendation {
+    std::size_t observation = 0;  // index into observations()
+    double predicted = 0.0;       // posterior mean there (the observed y before the model is fitted)
+  };
+  // The successful observation with the lowest GP posterior mean (noise learned: a lucky draw is not
+  // believed), or the lowest y while there is no model. Empty before the first success.
+  std::optional<Recommendation> recommended() const;
   int num_successful() const;
   const HedgeState& hedge() const { return hedge_; }
   const SearchSpace& space() const { return space_; }
