@@ -24,6 +24,7 @@ void LegFeedback::reset() {
   was_contact_ = true;
   reflex_time_left_ = 0.0;
   early_flex_start_ = -1.0;
+  late_touchdown_wait_s_ = 0.0;
 }
 
 FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, const StepTiming& timing) {
@@ -41,12 +42,14 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
   const bool wrapped = phase < last_phase_ - 0.5;
   const bool entered_swing = !wrapped && last_phase_ < duty && phase >= duty;
   if (entered_swing) {
+    late_touchdown_wait_s_ = 0.0;
     lifted_off_ = !contact;
     reflex_used_ = false;
     touched_down_ = false;
   }
   if (wrapped) {
     early_flex_start_ = -1.0;
+    late_touchdown_wait_s_ = 0.0;
     // Touchdown during retraction (before the wrap) counts as on time.
   }
   last_phase_ = phase;
@@ -65,8 +68,14 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
     if (contact) touched_down_ = true;
     // Late touchdown: stance has begun, no ground yet.
     if (!touched_down_ && config_.late_touchdown) {
+      // Always measured while the ground is missing (the mismatch), but the phase is held back only for
+      // late_touchdown_max_wait_s: a body that is falling onto the leg meets the ground within that time;
+      // after it, the other legs carry the body and waiting longer only splits the leg from its partners.
       action.activity.late_touchdown = true;
-      action.phase_rate = std::min(action.phase_rate, config_.late_touchdown_phase_rate);
+      if (late_touchdown_wait_s_ < config_.late_touchdown_max_wait_s) {
+        action.phase_rate = std::min(action.phase_rate, config_.late_touchdown_phase_rate);
+      }
+      late_touchdown_wait_s_ += dt_s;
     }
     // Early toe-off: ground lost after touchdown, before the knee was due to flex.
     if (touched_down_ && !contact && config_.early_toeoff && phase < timing.knee_flex_start &&

@@ -137,7 +137,8 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       const YamlReader f = c.child("feedback");
       f.reject_unknown_keys({"late_touchdown", "early_touchdown", "early_toeoff", "late_toeoff_deceleration",
                              "late_touchdown_phase_rate", "late_toeoff_phase_rate", "reflex_duration_s",
-                             "reflex_knee_flexion_rad", "reflex_hip_passive", "etd_min_airborne_s"});
+                             "reflex_knee_flexion_rad", "reflex_hip_passive", "etd_min_airborne_s",
+                             "late_touchdown_max_wait_s"});
       auto& fb = cc.feedback;
       fb.late_touchdown = f.get_bool("late_touchdown", fb.late_touchdown);
       fb.early_touchdown = f.get_bool("early_touchdown", fb.early_touchdown);
@@ -149,6 +150,10 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       fb.reflex_knee_flexion_rad = f.get_double("reflex_knee_flexion_rad", fb.reflex_knee_flexion_rad);
       fb.reflex_hip_passive = f.get_bool("reflex_hip_passive", fb.reflex_hip_passive);
       fb.etd_min_airborne_s = f.get_double("etd_min_airborne_s", fb.etd_min_airborne_s);
+      fb.late_touchdown_max_wait_s = f.get_double("late_touchdown_max_wait_s", fb.late_touchdown_max_wait_s);
+      if (!(fb.late_touchdown_max_wait_s >= 0.0 && fb.late_touchdown_max_wait_s <= 10.0)) {
+        f.fail("late_touchdown_max_wait_s", "must be in [0, 10] s");
+      }
       if (!(fb.etd_min_airborne_s >= 0.0 && fb.etd_min_airborne_s <= 0.5)) f.fail("etd_min_airborne_s", "must be in [0, 0.5] s");
       if (fb.late_touchdown_phase_rate < 0.0 || fb.late_touchdown_phase_rate > 1.0) {
         f.fail("late_touchdown_phase_rate", "must be in [0, 1]");

@@ -55,6 +55,38 @@ TEST(Feedback, LateTouchdownDeceleratesThePhaseUntilContact) {
   EXPECT_EQ(c.etd + c.eto + c.lto, 0);
 }
 
+TEST(Feedback, LateTouchdownHoldsThePhaseOnlyForTheMaxWaitButKeepsMeasuring) {
+  // The ground never comes in stance 0..0.3 (a foot hanging while the other legs carry the body).
+  CpgParameters p;
+  p.duty_factor_front = 0.5;
+  const StepTiming t = step_timing(p, kFrontLeft);
+  FeedbackConfig cfg;
+  cfg.late_touchdown_phase_rate = 0.1;
+  cfg.late_touchdown_max_wait_s = 0.1;
+  LegFeedback fb(cfg);
+  double phase = 0.6;  // start in swing so that the next stance begins untouched
+  double held_s = 0.0, measured_s = 0.0;
+  bool in_second_stance = false;
+  for (int tick = 0; tick < 1500; ++tick) {
+    const bool contact = phase >= 0.3 && phase < 0.5;
+    const auto a = fb.update(phase, contact, 0.002, t);
+    if (phase < 0.3) in_second_stance = true;
+    if (in_second_stance && phase < 0.3) {
+      held_s += a.phase_rate < 1.0 ? 0.002 : 0.0;
+      measured_s += a.activity.late_touchdown ? 0.002 : 0.0;
+    }
+    phase += 0.002 * a.phase_rate;
+    if (phase >= 1.0) {
+      phase -= 1.0;
+      if (in_second_stance) break;  // one stance window measured
+    }
+  }
+  // Held back for the wait only (one tick of slack), then free running: 0.3 cycles take 0.1 s held
+  // (0.01 cycles) + 0.29 s free, all of it measured as late touchdown.
+  EXPECT_NEAR(held_s, 0.1, 0.0021);
+  EXPECT_GT(measured_s, 0.35);
+}
+
 TEST(Feedback, EarlyTouchdownTriggersTheKneeReflexWithAPassiveHip) {
   // Lifts off at 0.5 as planned, then hits the ground at 0.7, long before retraction (0.9).
   const Counts c = run([](double phi) { return phi < 0.5 || (phi >= 0.7 && phi < 0.75); });

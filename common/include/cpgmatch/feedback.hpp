@@ -27,6 +27,8 @@
 // the others neither act nor report when switched off (for ablations).
 #pragma once
 
+#include <limits>
+
 #include "cpgmatch/cpg.hpp"
 
 namespace cpgmatch {
@@ -37,6 +39,13 @@ struct FeedbackConfig {
   bool early_toeoff = true;
   bool late_toeoff_deceleration = false;  // LTO is always measured; this also slows the phase
   double late_touchdown_phase_rate = 0.1;  // phase speed factor while waiting for touchdown (0..1)
+  // Longest a leg's phase is held back per stance while it waits for the ground, seconds; LTD is still
+  // *measured* for as long as the ground is missing. Unbounded by default, as the paper's "decelerate
+  // until contact". A physical case for a bound: a body falling onto the waiting leg drops
+  // g t^2 / 2 = 5 cm in 0.1 s, so a foot still in the air after that hangs because the other legs carry
+  // the body, and holding it only splits it from its diagonal partner (traced in docs/model.md). Measured
+  // with 0.1 s it did not pay off in studies (docs/model.md, "Known limits"), so it stays an option.
+  double late_touchdown_max_wait_s = std::numeric_limits<double>::infinity();
   double late_toeoff_phase_rate = 0.5;     // phase speed factor during LTO, when deceleration is on
   double reflex_duration_s = 0.12;         // knee pull-up reflex length, seconds
   double etd_min_airborne_s = 0.04;        // swing contact counts as ETD only after this long in the air, s
@@ -88,6 +97,7 @@ class LegFeedback {
   bool reflex_used_ = false;    // one reflex per swing
   double reflex_time_left_ = 0.0;
   double early_flex_start_ = -1.0;  // phase at which ETO started knee flexion, this cycle
+  double late_touchdown_wait_s_ = 0.0;  // time the phase has waited for touchdown in this stance window
 };
 
 }  // namespace cpgmatch
