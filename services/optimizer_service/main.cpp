@@ -64,6 +64,7 @@ class DdsOutbox final : public Outbox {
   void send_candidate(const msg::Candidate& c) override { check(candidates_.write(c), "candidate"); }
   void retire_candidate(const msg::Candidate& c) override { candidates_.unregister(c); }
   void publish_trial(const msg::TrialRecord& t) override { check(trials_.write(t), "trial record"); }
+  void retire_trial(const msg::TrialRecord& t) override { trials_.unregister(t); }
   void publish_state(const msg::StudyState& s) override { check(states_.write(s), "study state"); }
   void reply(const msg::CommandReply& r) override { check(replies_.write(r), "command reply"); }
 

@@ -34,7 +34,8 @@ trap cleanup EXIT
 
 run_row() {  # run_row STUDIES WORKERS SLOTS DELAY_MS THREADS
   local studies=$1 workers=$2 slots=$3 delay=$4 threads=$5
-  local tag="s${studies}w${workers}x${slots}d${delay}t${threads}" store="$work/$tag.db" log="$work/$tag.opt.log"
+  local tag="s${studies}w${workers}x${slots}d${delay}t${threads}"
+  local store="$work/$tag.db" log="$work/$tag.opt.log"
   ((++domain))
   "$bin/cpgmatch-optimizer" --domain "$domain" --store "$store" --localhost-only --model-threads "$threads" \
     --log-level info 2>"$log" &

@@ -20,12 +20,13 @@ namespace {
 
 struct RecordingOutbox : Outbox {
   std::vector<msg::Candidate> candidates, retired;
-  std::vector<msg::TrialRecord> trials;
+  std::vector<msg::TrialRecord> trials, retired_trials;
   std::vector<msg::StudyState> states;
   std::vector<msg::CommandReply> replies;
   void send_candidate(const msg::Candidate& c) override { candidates.push_back(c); }
   void retire_candidate(const msg::Candidate& c) override { retired.push_back(c); }
   void publish_trial(const msg::TrialRecord& t) override { trials.push_back(t); }
+  void retire_trial(const msg::TrialRecord& t) override { retired_trials.push_back(t); }
   void publish_state(const msg::StudyState& s) override { states.push_back(s); }
   void reply(const msg::CommandReply& r) override { replies.push_back(r); }
 };
@@ -350,6 +351,35 @@ TEST_F(CoordinatorTest, ReportsThatArriveWhileTheModelIsBusyAreFittedOnceTogethe
   const auto state = store_->load(id)->model_state;
   EXPECT_EQ(state.at("observations").get<int>(), 8);
   EXPECT_EQ(state.at("fits").get<int>(), fits_before + 2);  // one for the first report, one for the three
+}
+
+TEST_F(CoordinatorTest, AFinishedStudysTrialRecordsLeaveTheTopicAfterTheGraceAndAreNotRepublished) {
+  // Memory stays flat over a long run: a finished study's records leave the DDS writer once clients
+  // following it live have had them (30 s), and a restart does not publish them again (the store has them).
+  const int done = submit(4, 4);
+  const int open_one = submit(50, 50);
+  worker("a", 4);
+  coordinator_->tick(now_ += 0.1);
+  answer_all();  // the first study's four trials
+  coordinator_->tick(now_ += 0.1);
+  answer_all();  // four of the second's
+  ASSERT_EQ(store_->load(done)->state, "done");
+  coordinator_->tick(now_ += 29.0);
+  EXPECT_TRUE(out_.retired_trials.empty()) << "retired before the grace period was over";
+  coordinator_->tick(now_ += 2.0);
+  ASSERT_EQ(out_.retired_trials.size(), 4u);
+  for (const auto& t : out_.retired_trials) EXPECT_EQ(t.study_id(), static_cast<std::uint32_t>(done));
+  coordinator_->tick(now_ += 60.0);
+  EXPECT_EQ(out_.retired_trials.size(), 4u);  // once, and never the open study's
+
+  open();
+  coordinator_->resume_from_store(now_);
+  for (const auto& t : out_.trials) EXPECT_EQ(t.study_id(), static_cast<std::uint32_t>(open_one));
+  EXPECT_EQ(out_.trials.size(), 4u);  // the open study's counted trials only
+  coordinator_->tick(now_ += 0.1);
+  bool finished_state_published = false;  // its state (with the recommendation) is still served
+  for (const auto& st : out_.states) finished_state_published |= st.study_id() == static_cast<std::uint32_t>(done) && st.has_recommendation();
+  EXPECT_TRUE(finished_state_published);
 }
 
 TEST_F(CoordinatorTest, AStudyThatCannotBeReopenedIsMarkedFailedAndTheOthersAreServed) {

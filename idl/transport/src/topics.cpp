@@ -44,6 +44,11 @@ void apply_common(Qos& qos, const TopicInfo& info) {
   qos.resource_limits().max_samples_per_instance = info.history_depth;
   qos.resource_limits().max_samples = info.max_instances * info.history_depth;
   qos.resource_limits().allocated_samples = 64;
+  // No data sharing (Fast DDS 2.9 turns it on by itself between processes on one host): its listener
+  // thread was seen spinning at 50% of a core in a loaded run and then hanging the reader's destruction,
+  // so `cpgmatch study submit` never exited; and its segments in /dev/shm (fast_datasharing_*) outlive a
+  // SIGKILLed process. Loopback UDP is fast enough for these sample rates.
+  qos.data_sharing().off();
 }
 
 }  // namespace

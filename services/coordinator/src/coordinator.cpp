@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -158,8 +159,11 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
       report.error("stored report unreadable");
     }
     account_report(s, trial_id, t->x, report);  // the optimizer already holds it: counters and best only
-    out_.publish_trial(make_trial_record(s, trial_id, t->x, report));
+    // A finished study's records are served from the store (analyze, plot), not kept on the topic.
+    if (is_open(s)) out_.publish_trial(make_trial_record(s, trial_id, t->x, report));
   }
+  s.records_retired = !is_open(s);
+  if (s.records_retired && s.in_flight.empty()) s.optimizer.reset();  // s.model keeps the recommendation
   s.session_start_s = now_s;
   s.completed_at_session_start = s.completed;
   if (!s.in_flight.empty()) {
@@ -473,27 +477,30 @@ void Coordinator::start_model_job(Study& s, int ask) {
   s.model_busy = true;
   s.asking = ask;
   const int id = s.id;
-  auto work = [this, id, optimizer = s.optimizer, tells = std::move(tells), pending = std::move(pending),
-               ask]() -> ModelPool::Completion {
+  auto work = [this, id, optimizer = s.optimizer, told_trials = s.told_trials, tells = std::move(tells),
+               pending = std::move(pending), ask]() -> ModelPool::Completion {
     if (options_.model_job_hook) options_.model_job_hook(id);
     std::vector<Eigen::VectorXd> points;
     std::string error;
+    std::optional<std::pair<ModelSnapshot, nlohmann::json>> fitted;  // what the event thread keeps and stores
     try {
-      optimizer->tell_batch(tells);  // one fit for every report since the last job
+      if (!tells.empty()) {
+        optimizer->tell_batch(tells);  // one fit for every report since the last job
+        fitted.emplace(snapshot_of(*optimizer, told_trials), model_state_json(optimizer->model_state()));
+      }
       if (ask > 0) points = optimizer->ask(ask, pending);
     } catch (const std::exception& e) {
       error = e.what();  // e.g. a GP that cannot be factorised: logged, and the study asks again next tick
     }
-    // On the event thread. The optimizer is safe to read there: this job has finished and the study's
-    // next job is only started after this completion has run.
-    return [this, id, told = !tells.empty(), points = std::move(points), ask, error] {
+    // On the event thread: only copies and the store write, never model work.
+    return [this, id, fitted = std::move(fitted), points = std::move(points), ask, error] {
       Study* study = find_study(id);
       if (study == nullptr) return;
       study->model_busy = false;
       study->asking = 0;
-      if (told) {
-        store_.save_model_state(id, model_state_json(study->optimizer->model_state()));
-        study->model = snapshot_of(*study->optimizer, study->told_trials);
+      if (fitted) {
+        store_.save_model_state(id, fitted->second);
+        study->model = fitted->first;
         study->dirty = true;
       }
       if (!error.empty()) warn_(fmt::format("study {}: model job (tell, then ask({})) failed: {}", id, ask, error));
@@ -535,7 +542,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
   s->in_flight.erase(it);
   count_report(*s, trial_id, x, r);
   out_.retire_candidate(retired);
-  out_.publish_trial(make_trial_record(*s, trial_id, x, r));
+  if (!s->records_retired) out_.publish_trial(make_trial_record(*s, trial_id, x, r));  // else: the store has it
   if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id().to_string(), r.error().to_string()));
   if (s->state == "running" && s->consecutive_failures >= options_.max_consecutive_failures) {
     s->state = "failed";
@@ -629,6 +636,22 @@ void Coordinator::publish_state(Study& s, double now_s) {
   last_state_publish_[s.id] = now_s;
 }
 
+void Coordinator::retire_finished(Study& s, double now_s) {
+  if (is_open(s) || s.records_retired) return;
+  if (s.records_leave_at_s < 0.0) s.records_leave_at_s = now_s + options_.finished_records_grace_s;
+  if (now_s < s.records_leave_at_s || s.model_busy || !s.untold.empty()) return;
+  for (const int trial_id : s.told_trials) {
+    msg::TrialRecord key;
+    key.study_id(static_cast<std::uint32_t>(s.id));
+    key.trial_id(static_cast<std::uint32_t>(trial_id));
+    out_.retire_trial(key);
+  }
+  s.records_retired = true;
+  // Its model is no longer needed (the state keeps the recommendation), unless a stopped study's
+  // candidate still reports.
+  if (s.in_flight.empty()) s.optimizer.reset();
+}
+
 void Coordinator::tick(double now_s) {
   apply_model_results();
   std::vector<std::string> silent;
@@ -648,6 +671,7 @@ void Coordinator::tick(double now_s) {
   // Without model threads the jobs just started have finished already: issue their points now.
   if (apply_model_results() > 0) issue_waiting_work(order, now_s);
   for (auto& [sid, s] : studies_) {
+    retire_finished(s, now_s);
     const auto last = last_state_publish_.find(sid);
     if (s.dirty && (last == last_state_publish_.end() || now_s - last->second >= kStatePublishPeriod_s)) {
       publish_state(s, now_s);

@@ -42,6 +42,8 @@ class Outbox {
   virtual void send_candidate(const msg::Candidate& c) = 0;
   virtual void retire_candidate(const msg::Candidate& c) = 0;  // report received: drop it from the topic
   virtual void publish_trial(const msg::TrialRecord& t) = 0;
+  // A finished study's record leaves the topic (its key is set; the store keeps the record).
+  virtual void retire_trial(const msg::TrialRecord& t) = 0;
   virtual void publish_state(const msg::StudyState& s) = 0;
   virtual void reply(const msg::CommandReply& r) = 0;
 };
@@ -53,6 +55,10 @@ struct CoordinatorOptions {
   // ticks (every 20 ms) instead of one ask() that blocks the event loop for seconds; heartbeats, reports
   // and commands are served in between.
   int max_new_candidates_per_tick = 32;
+  // A study's trial records stay on the (transient-local) trials topic while it is open and this long
+  // after it ended, for clients following it live (`study run` collects them at the end); then they leave
+  // the DDS writer, whose memory would otherwise grow with every trial ever run. The store keeps them.
+  double finished_records_grace_s = 30.0;
   CpgParameters base_parameters;       // values of CPG parameters a study neither optimises nor fixes
   // Every `now_s` handed to the coordinator is *monotonic* time (timeouts and leases must not fire, or
   // hang, when the wall clock is stepped); this clock gives the Unix time written to the store and shown
@@ -138,6 +144,8 @@ class Coordinator {
     double created_at_s = 0.0, session_start_s = 0.0;
     int completed_at_session_start = 0;
     bool dirty = true;
+    double records_leave_at_s = -1.0;  // monotonic time its trial records leave the topic (<0: not set)
+    bool records_retired = false;      // they have (or, after a restart, were never published)
   };
   struct Worker {
     std::string id;
@@ -179,6 +187,8 @@ class Coordinator {
   msg::TrialRecord make_trial_record(const Study& study, int trial_id, const Eigen::VectorXd& x,
                                      const msg::RolloutReport& report) const;
   void publish_state(Study& study, double now_s);
+  // A finished study, its grace period over: trial records off the topic, model dropped.
+  void retire_finished(Study& study, double now_s);
   bool is_open(const Study& s) const { return s.state == "running" || s.state == "paused"; }
 
   study::StudyStore& store_;
