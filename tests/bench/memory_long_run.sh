@@ -4,6 +4,7 @@
 # service's bookkeeping, DDS histories and store, not model sizes), BATCH at a time, to 2 workers x 16
 # slots of 5-ms fake rollouts, and prints the optimizer's RSS (VmRSS) after every batch.
 # Usage: tests/bench/memory_long_run.sh [build-dir] [STUDIES=150] [TRIALS=40] [BATCH=10]
+#   OPTIMIZER=/path/to/cpgmatch-optimizer: another build's optimizer (a before/after comparison)
 set -euo pipefail
 build="$(cd "${1:-build}" && pwd)"; studies=${2:-150}; trials=${3:-40}; batch=${4:-10}
 bin="$build/bin"
@@ -15,7 +16,7 @@ trap cleanup EXIT
 cli() { "$bin/cpgmatch" "$@" --domain "$domain" --localhost-only; }
 rss_kb() { awk '/VmRSS/ {print $2}' "/proc/$1/status"; }
 
-"$bin/cpgmatch-optimizer" --domain "$domain" --store "$work/s.db" --localhost-only --log-level warn 2>"$work/opt.log" &
+"${OPTIMIZER:-$bin/cpgmatch-optimizer}" --domain "$domain" --store "$work/s.db" --localhost-only --log-level warn 2>"$work/opt.log" &
 opt=$!; pids+=("$opt")
 for i in 1 2; do
   "$bin/cpgmatch-sim-worker" --domain "$domain" --id "w$i" --slots 16 --fake-rollout-ms 5 --localhost-only \
@@ -43,5 +44,5 @@ while ((submitted < studies)); do
   done
   echo "$submitted $((submitted * trials)) $(python3 -c "print(f'{$(rss_kb "$opt") / 1024:.1f}')") $((SECONDS - start))"
 done
-sleep 5  # any deferred clean-up of finished studies
-echo "after 5 s idle: $(python3 -c "print(f'{$(rss_kb "$opt") / 1024:.1f}')") MB"
+sleep 35  # finished studies' records leave the DDS writer 30 s after the study ended
+echo "after 35 s idle: $(python3 -c "print(f'{$(rss_kb "$opt") / 1024:.1f}')") MB"
