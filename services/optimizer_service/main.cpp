@@ -4,10 +4,14 @@
 //
 //   cpgmatch-optimizer --domain 7 --store studies.db
 //
-// DDS listeners only queue samples; one thread runs the coordinator (see coordinator.hpp).
+// DDS listeners only queue samples; one thread runs the coordinator (see coordinator.hpp); model fits and
+// acquisition optimisation run on --model-threads threads beside it.
+#include <algorithm>
 #include <csignal>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
+#include <thread>
 #include <variant>
 
 #include <CLI/CLI.hpp>
@@ -22,12 +26,15 @@
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/study/store_lock.hpp"
 #include "event_queue.hpp"
+#include "loop_latency.hpp"
 
 namespace cpgmatch::service {
 namespace {
 
 volatile std::sig_atomic_t g_stop = 0;
+volatile std::sig_atomic_t g_print_stats = 0;
 void on_signal(int) { g_stop = 1; }
+void on_stats_signal(int) { g_print_stats = 1; }
 
 // Monotonic: the coordinator's timeouts and leases run on it (the store gets Unix time separately).
 double monotonic_now_s() {
@@ -37,7 +44,18 @@ double monotonic_now_s() {
 struct WorkerGone {
   std::uint64_t key;
 };
-using Event = std::variant<msg::StudyCommand, msg::RolloutReport, msg::WorkerAnnouncement, WorkerGone>;
+struct ModelResult {};  // a model job finished: wake up and apply it
+using Sample = std::variant<msg::StudyCommand, msg::RolloutReport, msg::WorkerAnnouncement, WorkerGone, ModelResult>;
+struct Event {
+  Sample sample;
+  std::chrono::steady_clock::time_point arrived = std::chrono::steady_clock::now();
+};
+
+// Model threads by default: the cores left beside the event thread, at least one.
+int default_model_threads() {
+  const int cores = static_cast<int>(std::thread::hardware_concurrency());
+  return std::clamp(cores - 1, 1, 16);
+}
 
 // Publishes what the coordinator decides.
 class DdsOutbox final : public Outbox {
@@ -46,6 +64,7 @@ class DdsOutbox final : public Outbox {
   void send_candidate(const msg::Candidate& c) override { check(candidates_.write(c), "candidate"); }
   void retire_candidate(const msg::Candidate& c) override { candidates_.unregister(c); }
   void publish_trial(const msg::TrialRecord& t) override { check(trials_.write(t), "trial record"); }
+  void retire_trial(const msg::TrialRecord& t) override { trials_.unregister(t); }
   void publish_state(const msg::StudyState& s) override { check(states_.write(s), "study state"); }
   void reply(const msg::CommandReply& r) override { check(replies_.write(r), "command reply"); }
 
@@ -59,14 +78,27 @@ class DdsOutbox final : public Outbox {
   dds::Writer<msg::CommandReply> replies_;
 };
 
-int run(int domain, const std::string& store_path, bool full_durability, double worker_timeout_s, bool localhost_only) {
+int run(int domain, const std::string& store_path, bool full_durability, double worker_timeout_s, bool localhost_only,
+        int model_threads) {
   dds::validate_domain(domain);
   if (worker_timeout_s <= 0.0) throw InputError("--worker-timeout must be > 0");
+  if (model_threads < 1 || model_threads > 64) throw InputError("--model-threads must be in [1, 64]");
   const study::StoreLock lock(store_path);  // before the store is touched: one optimizer per store
-  study::StudyStore store(store_path, full_durability ? study::Durability::kFull : study::Durability::kNormal);
+  std::unique_ptr<study::StudyStore> opened;
+  try {
+    opened = std::make_unique<study::StudyStore>(store_path, full_durability ? study::Durability::kFull
+                                                                             : study::Durability::kNormal);
+    opened->require_writable();
+  } catch (const study::StoreWriteError& e) {
+    throw InputError(fmt::format("--store: {}", e.what()));  // an unusable --store, like a locked one: exit 2
+  }
+  study::StudyStore& store = *opened;
   service::CoordinatorOptions options;
   options.worker_timeout_s = worker_timeout_s;
   options.base_parameters = load_parameters(sim::default_params_path());
+  options.model_threads = model_threads;
+  service::EventQueue<Event> queue;
+  options.on_model_result = [&queue] { queue.push(Event{ModelResult{}}); };
 
   dds::ParticipantConfig dds_config{domain, "cpgmatch-optimizer", localhost_only};
   // Two optimizers on one domain would both answer commands and publish colliding study ids: say so loudly.
@@ -84,14 +116,18 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
       [](const std::string& m) { spdlog::warn("{}", m); });
   coordinator.resume_from_store(monotonic_now_s());
 
-  service::EventQueue<Event> queue;
-  dds::Reader<msg::StudyCommand> commands(participant, [&](const msg::StudyCommand& c) { queue.push(c); });
-  dds::Reader<msg::RolloutReport> reports(participant, [&](const msg::RolloutReport& r) { queue.push(r); });
+  dds::Reader<msg::StudyCommand> commands(participant, [&](const msg::StudyCommand& c) { queue.push(Event{c}); });
+  dds::Reader<msg::RolloutReport> reports(participant, [&](const msg::RolloutReport& r) { queue.push(Event{r}); });
   dds::Reader<msg::WorkerAnnouncement> workers(
-      participant, [&](const msg::WorkerAnnouncement& w) { queue.push(w); },
-      [&](const msg::WorkerAnnouncement& key, dds::InstanceGone) { queue.push(WorkerGone{key.worker_key()}); });
-  spdlog::info("optimizer on domain {} with store {} ({} studies)", domain, store_path, coordinator.studies());
+      participant, [&](const msg::WorkerAnnouncement& w) { queue.push(Event{w}); },
+      [&](const msg::WorkerAnnouncement& key, dds::InstanceGone) { queue.push(Event{WorkerGone{key.worker_key()}}); });
+  spdlog::info("optimizer on domain {} with store {} ({} studies, {} model threads)", domain, store_path,
+               coordinator.studies(), model_threads);
 
+  LatencyRecorder sample_latency, tick_duration;
+  auto log_latency = [&] {
+    spdlog::info("event loop: sample arrival to handled: {}; tick: {}", sample_latency.summary(), tick_duration.summary());
+  };
   while (!g_stop) {
     for (auto& event : queue.drain(std::chrono::milliseconds(20))) {
       const double now = monotonic_now_s();
@@ -102,17 +138,31 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
               if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
               else if constexpr (std::is_same_v<T, msg::RolloutReport>) coordinator.handle_report(e, now);
               else if constexpr (std::is_same_v<T, msg::WorkerAnnouncement>) coordinator.handle_worker(e, now);
-              else coordinator.handle_worker_gone(e.key, now);
+              else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now);
             },
-            event);
+            event.sample);
+      } catch (const study::StoreWriteError&) {
+        throw;  // disk full, read-only store: stop and say so (run_reporting_errors); nothing unrecorded was acknowledged
       } catch (const std::exception& e) {
         // A sample that slipped past validation must not take the service down.
         spdlog::error("event dropped: {}", e.what());
       }
+      if (!std::holds_alternative<ModelResult>(event.sample)) {
+        sample_latency.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - event.arrived).count());
+      }
     }
+    const auto tick_start = std::chrono::steady_clock::now();
     coordinator.tick(monotonic_now_s());
+    tick_duration.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - tick_start).count());
+    if (g_print_stats) {
+      g_print_stats = 0;
+      log_latency();
+    }
   }
-  spdlog::info("optimizer stopping; every study is in {}", store_path);
+  log_latency();
+  spdlog::info("optimizer stopping; waiting for running model jobs; every study is in {}", store_path);
+  coordinator.wait_for_models();
+  coordinator.apply_model_results();  // their model states go to the store
   return kExitOk;
 }
 
@@ -127,11 +177,15 @@ int main(int argc, char** argv) {
   std::string store = "cpgmatch-studies.db";
   bool full_durability = false, localhost_only = false;
   double worker_timeout_s = 2.5;
+  int model_threads = service::default_model_threads();
   std::string log_level = "info";
   app.add_option("--domain", domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
   app.add_option("--store", store, "SQLite study store; created if missing, resumed if present")->capture_default_str();
   app.add_flag("--fsync", full_durability, "fsync every commit (survives power loss, not only a crash)");
   app.add_option("--worker-timeout", worker_timeout_s, "seconds without a heartbeat before a worker is dropped")
+      ->capture_default_str();
+  app.add_option("--model-threads", model_threads,
+                 "threads for GP fits and acquisition optimisation (a study's model work runs on one at a time)")
       ->capture_default_str();
   app.add_flag("--localhost-only", localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   app.add_option("--log-level", log_level, "log level")
@@ -146,8 +200,9 @@ int main(int argc, char** argv) {
   spdlog::set_level(spdlog::level::from_str(log_level));
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
+  std::signal(SIGUSR1, service::on_stats_signal);
   return run_reporting_errors([&] {
     return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
-                        worker_timeout_s, localhost_only);
+                        worker_timeout_s, localhost_only, model_threads);
   });
 }

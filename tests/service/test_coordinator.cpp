@@ -7,6 +7,8 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <atomic>
+#include <future>
 #include <set>
 #include <vector>
 
@@ -18,12 +20,13 @@ namespace {
 
 struct RecordingOutbox : Outbox {
   std::vector<msg::Candidate> candidates, retired;
-  std::vector<msg::TrialRecord> trials;
+  std::vector<msg::TrialRecord> trials, retired_trials;
   std::vector<msg::StudyState> states;
   std::vector<msg::CommandReply> replies;
   void send_candidate(const msg::Candidate& c) override { candidates.push_back(c); }
   void retire_candidate(const msg::Candidate& c) override { retired.push_back(c); }
   void publish_trial(const msg::TrialRecord& t) override { trials.push_back(t); }
+  void retire_trial(const msg::TrialRecord& t) override { retired_trials.push_back(t); }
   void publish_state(const msg::StudyState& s) override { states.push_back(s); }
   void reply(const msg::CommandReply& r) override { replies.push_back(r); }
 };
@@ -48,6 +51,8 @@ class CoordinatorTest : public ::testing::Test {
     out_ = RecordingOutbox{};
     CoordinatorOptions options;
     options.wall_clock_s = [this] { return wall_; };
+    options.model_threads = model_threads_;
+    options.model_job_hook = model_job_hook_;
     coordinator_ = std::make_unique<Coordinator>(*store_, out_, options, [](const std::string&) {},
                                                  [this](const std::string& m) { warnings_.push_back(m); });
   }
@@ -63,6 +68,15 @@ class CoordinatorTest : public ::testing::Test {
     return static_cast<int>(out_.replies.back().study_id());
   }
   std::vector<std::map<std::string, double>> one_slot_study(int answers, int restart_after);
+  // A tick, then with model threads: wait for the model jobs it started and tick again until none is left
+  // (what the service's event loop does as results arrive). Without model threads: just the tick.
+  void settle(double now_s) {
+    coordinator_->tick(now_s);
+    while (coordinator_->model_jobs_outstanding() > 0) {
+      coordinator_->wait_for_models();
+      coordinator_->tick(now_s);
+    }
+  }
   void worker(const std::string& id, int slots) {
     msg::WorkerAnnouncement w;
     w.worker_id(id);
@@ -97,6 +111,8 @@ class CoordinatorTest : public ::testing::Test {
   std::uint64_t correlation_ = 0;
   double now_ = 1000.0;       // monotonic time handed to the coordinator
   double wall_ = 1.7e9;       // the wall clock it writes to the store
+  int model_threads_ = 0;     // 0: model jobs inline
+  std::function<void(int)> model_job_hook_;
 };
 
 TEST_F(CoordinatorTest, FillsEveryFreeSlotAndFinishesWithExactlyTheBudget) {
@@ -225,18 +241,18 @@ std::vector<std::map<std::string, double>> CoordinatorTest::one_slot_study(int a
   submit(answers + 10, 30);
   worker("w", 1);
   std::vector<std::map<std::string, double>> issued;
-  coordinator_->tick(now_ += 0.01);
+  settle(now_ += 0.01);
   for (int k = 0; k < answers; ++k) {
     if (k == restart_after && restart_after > 0) {
       open();
       coordinator_->resume_from_store(now_);
       worker("w", 1);
-      coordinator_->tick(now_ += 0.01);  // the in-flight candidate goes out again
+      settle(now_ += 0.01);  // the in-flight candidate goes out again
     }
     const msg::Candidate c = out_.candidates.back();
     if (k >= restart_after) issued.push_back(dds::from_wire(c.parameters()));
     coordinator_->handle_report(report_for(c, 1.0 + std::sin(0.7 * c.trial_id())), now_ += 0.01);
-    coordinator_->tick(now_ += 0.01);
+    settle(now_ += 0.01);
   }
   issued.push_back(dds::from_wire(out_.candidates.back().parameters()));
   return issued;
@@ -250,6 +266,120 @@ TEST_F(CoordinatorTest, ARestartProposesExactlyWhatTheUninterruptedRunWould) {
   const auto restarted = one_slot_study(42, 36);
   ASSERT_EQ(restarted.size(), 7u);
   for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
+}
+
+TEST_F(CoordinatorTest, WithModelThreadsAOneSlotStudyProposesTheSameSequenceAndRestartsExactly) {
+  // Model jobs on threads: tells are applied in report order before the study's next ask, so one worker
+  // with one slot gets the same candidates as with inline model work, restarts included.
+  const auto inline_run = one_slot_study(42, 0);
+  model_threads_ = 2;
+  const auto threaded = one_slot_study(42, 0);
+  EXPECT_EQ(threaded, inline_run);
+  const auto restarted = one_slot_study(42, 36);
+  ASSERT_EQ(restarted.size(), 7u);
+  for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], inline_run[36 + i]) << "candidate " << 36 + i;
+}
+
+TEST_F(CoordinatorTest, WhileAModelJobRunsHeartbeatsCommandsAndReportsAreServed) {
+  // A study's model job is held on its thread (as a slow GP fit would be). Meanwhile the event thread
+  // answers a command, drops a silent worker on time and counts reports; the job's points are issued
+  // once it finishes.
+  model_threads_ = 1;
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  model_job_hook_ = [released](int) { released.wait(); };
+  open();
+  const int id = submit(20, 3);
+  worker("a", 2);
+  worker("b", 1);
+  coordinator_->tick(now_ += 0.02);
+  EXPECT_EQ(coordinator_->model_jobs_outstanding(), 1);
+  EXPECT_TRUE(out_.candidates.empty());  // the asked points are not there yet
+
+  msg::StudyCommand pause;
+  pause.correlation_id(77);
+  pause.client_id("test");
+  pause.kind(msg::COMMAND_PAUSE);
+  pause.study_id(static_cast<std::uint32_t>(id + 1));
+  coordinator_->handle_command(pause, now_);
+  ASSERT_EQ(out_.replies.size(), 2u);  // the submit's and this one, while the job is held
+  now_ += 3.0;  // b silent for 3 s > 2.5 s; a keeps announcing
+  worker("a", 2);
+  coordinator_->tick(now_);
+  EXPECT_EQ(coordinator_->live_workers(), 1);
+  EXPECT_EQ(coordinator_->model_jobs_outstanding(), 1);
+
+  release.set_value();
+  worker("a", 2);
+  settle(now_ += 0.02);
+  ASSERT_EQ(out_.candidates.size(), 2u);  // a's two slots
+  for (const auto& c : out_.candidates) EXPECT_EQ(c.worker_id().to_string(), "a");
+  answer_all();
+  EXPECT_EQ(out_.trials.size(), 2u);
+}
+
+TEST_F(CoordinatorTest, ReportsThatArriveWhileTheModelIsBusyAreFittedOnceTogether) {
+  // One hyperparameter fit per batch: three reports counted while the study's job is held are told to
+  // the optimizer together by its next job, with one fit (the saved model state counts the fits).
+  model_threads_ = 1;
+  std::promise<void> gate;
+  std::shared_future<void> released = gate.get_future().share();
+  auto hold = std::make_shared<std::atomic<bool>>(false);
+  model_job_hook_ = [hold, released](int) {
+    if (hold->load()) released.wait();
+  };
+  open();
+  const int id = submit(30, 4);
+  worker("a", 4);
+  settle(now_ += 0.02);
+  ASSERT_EQ(out_.candidates.size(), 4u);
+  answer_all();  // the initial design: the next job fits the model for the first time
+  settle(now_ += 0.02);
+  const int fits_before = store_->load(id)->model_state.at("fits").get<int>();
+  EXPECT_EQ(fits_before, 1);
+  ASSERT_EQ(out_.candidates.size(), 8u);
+  hold->store(true);
+  coordinator_->handle_report(report_for(out_.candidates[4], 0.5), now_);
+  coordinator_->tick(now_ += 0.02);  // a job tells this report (one fit) and is held
+  EXPECT_EQ(coordinator_->model_jobs_outstanding(), 1);
+  for (std::size_t i = 5; i < 8; ++i) coordinator_->handle_report(report_for(out_.candidates[i], 0.4 + 0.01 * i), now_);
+  coordinator_->tick(now_ += 0.02);  // the study's job is busy: the three reports wait for the next one
+  EXPECT_EQ(coordinator_->model_jobs_outstanding(), 1);
+  hold->store(false);
+  gate.set_value();
+  settle(now_ += 0.02);
+  const auto state = store_->load(id)->model_state;
+  EXPECT_EQ(state.at("observations").get<int>(), 8);
+  EXPECT_EQ(state.at("fits").get<int>(), fits_before + 2);  // one for the first report, one for the three
+}
+
+TEST_F(CoordinatorTest, AFinishedStudysTrialRecordsLeaveTheTopicAfterTheGraceAndAreNotRepublished) {
+  // Memory stays flat over a long run: a finished study's records leave the DDS writer once clients
+  // following it live have had them (30 s), and a restart does not publish them again (the store has them).
+  const int done = submit(4, 4);
+  const int open_one = submit(50, 50);
+  worker("a", 4);
+  coordinator_->tick(now_ += 0.1);
+  answer_all();  // the first study's four trials
+  coordinator_->tick(now_ += 0.1);
+  answer_all();  // four of the second's
+  ASSERT_EQ(store_->load(done)->state, "done");
+  coordinator_->tick(now_ += 29.0);
+  EXPECT_TRUE(out_.retired_trials.empty()) << "retired before the grace period was over";
+  coordinator_->tick(now_ += 2.0);
+  ASSERT_EQ(out_.retired_trials.size(), 4u);
+  for (const auto& t : out_.retired_trials) EXPECT_EQ(t.study_id(), static_cast<std::uint32_t>(done));
+  coordinator_->tick(now_ += 60.0);
+  EXPECT_EQ(out_.retired_trials.size(), 4u);  // once, and never the open study's
+
+  open();
+  coordinator_->resume_from_store(now_);
+  for (const auto& t : out_.trials) EXPECT_EQ(t.study_id(), static_cast<std::uint32_t>(open_one));
+  EXPECT_EQ(out_.trials.size(), 4u);  // the open study's counted trials only
+  coordinator_->tick(now_ += 0.1);
+  bool finished_state_published = false;  // its state (with the recommendation) is still served
+  for (const auto& st : out_.states) finished_state_published |= st.study_id() == static_cast<std::uint32_t>(done) && st.has_recommendation();
+  EXPECT_TRUE(finished_state_published);
 }
 
 TEST_F(CoordinatorTest, AStudyThatCannotBeReopenedIsMarkedFailedAndTheOthersAreServed) {

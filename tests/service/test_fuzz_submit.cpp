@@ -20,6 +20,7 @@ struct NullOutbox : Outbox {
   void send_candidate(const msg::Candidate&) override {}
   void retire_candidate(const msg::Candidate&) override {}
   void publish_trial(const msg::TrialRecord&) override {}
+  void retire_trial(const msg::TrialRecord&) override {}
   void publish_state(const msg::StudyState&) override {}
   void reply(const msg::CommandReply& r) override { replies.push_back(r); }
 };

@@ -184,6 +184,32 @@ TEST(Optimizer, RestoringFromASavedModelStateIsExactWithoutRefitting) {
   EXPECT_THROW(BayesianOptimizer::restore(tf.space, o, opt.observations(), too_many), InputError);
 }
 
+TEST(Optimizer, ABatchOfResultsIsFittedOnceAndRestoresExactly) {
+  // The service tells the reports that arrived while the model was busy in one batch: one fit for all of
+  // them, and the state saved after it restores an optimizer that proposes bit for bit the same.
+  const TestFunction tf = test_function("hartmann3");
+  OptimizerOptions o;
+  o.initial_points = 6;
+  o.seed = 9;
+  BayesianOptimizer opt(tf.space, o);
+  std::vector<Observation> batch;
+  for (const auto& x : opt.ask(6)) batch.push_back({x, tf.f(x), false});
+  opt.tell_batch(batch);
+  EXPECT_EQ(opt.model_state().fits, 1);
+  batch.clear();
+  const auto more = opt.ask(4);
+  for (std::size_t i = 0; i < more.size(); ++i) batch.push_back({more[i], tf.f(more[i]), i == 2});
+  opt.tell_batch(batch);
+  EXPECT_EQ(opt.observations().size(), 10u);
+  EXPECT_EQ(opt.model_state().fits, 2);  // four results, one fit
+  EXPECT_TRUE(opt.observations()[8].failed);
+  BayesianOptimizer restored = BayesianOptimizer::restore(tf.space, o, opt.observations(), opt.model_state());
+  EXPECT_EQ(restored.ask(2), opt.ask(2));
+  // Nothing is recorded when one point of the batch is bad.
+  EXPECT_THROW(opt.tell_batch({{more[0], 1.0, false}, {Eigen::Vector3d(9.0, 0.0, 0.0), 1.0, false}}), InputError);
+  EXPECT_EQ(opt.observations().size(), 10u);
+}
+
 TEST(Optimizer, TheLastObservationOfTheBudgetIsNotFittedFor) {
   const TestFunction tf = test_function("branin");
   OptimizerOptions o;

@@ -14,6 +14,7 @@
 #include <deque>
 #include <iostream>
 #include <iterator>
+#include <map>
 #include <mutex>
 #include <set>
 #include <tuple>
@@ -37,7 +38,9 @@ volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
 
 // Reports stay in the writer's transient-local history so that an optimizer restarting mid-study still
-// receives them; the oldest are unregistered once this many are kept.
+// receives them, until the optimizer disposes the candidate (it does once the report is in its store):
+// then the report is unregistered, which frees it here and its instance in the optimizer's reader. The
+// oldest are unregistered anyway once this many are kept (an optimizer that never acknowledges).
 constexpr std::size_t kReportsKept = 4096;
 
 struct Options {
@@ -57,7 +60,12 @@ class SimWorker {
         reports_(participant_),
         announcements_(participant_),
         candidates_(participant_, "candidates_for_" + o.id, "worker_id = %0", {"'" + o.id + "'"},
-                    [this](const msg::Candidate& c) { accept(c); }) {
+                    [this](const msg::Candidate& c) { accept(c); }),
+        // The content filter cannot read a dispose (a key-only sample), so disposes come through an
+        // unfiltered reader: the candidates of other workers are only remembered until their dispose.
+        acknowledgements_(participant_, {}, [this](const msg::Candidate& key, dds::InstanceGone gone) {
+          if (gone.disposed) report_acknowledged(key);  // not on a lost optimizer: its successor needs them
+        }) {
     slot_options_.worker_id = o.id;
     slot_options_.fake_rollout_s = o.fake_rollout_ms >= 0.0 ? o.fake_rollout_ms / 1000.0 : -1.0;
     for (int i = 0; i < o.slots; ++i) slots_.emplace_back([this] { slot_loop(); });
@@ -89,6 +97,14 @@ class SimWorker {
     wake_.notify_all();
   }
 
+  void report_acknowledged(const msg::Candidate& key) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = kept_.find({key.study_id(), key.trial_id()});
+    if (it == kept_.end()) return;
+    reports_.unregister(it->second);
+    kept_.erase(it);
+  }
+
   void slot_loop() {
     while (true) {
       msg::Candidate c;
@@ -105,10 +121,20 @@ class SimWorker {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!reports_.write(report)) spdlog::error("study {} trial {}: report write failed", c.study_id(), c.trial_id());
       in_progress_.erase(issue_key(c));
-      kept_.push_back(report);
-      if (kept_.size() > kReportsKept) {
-        reports_.unregister(kept_.front());
-        kept_.pop_front();
+      const ReportKey key{report.study_id(), report.trial_id()};
+      kept_[key] = report;
+      kept_order_.push_back(key);
+      if (kept_order_.size() > 2 * kReportsKept) {  // drop the acknowledged ones from the order
+        std::deque<ReportKey> live;
+        for (const auto& k : kept_order_) if (kept_.count(k)) live.push_back(k);
+        kept_order_.swap(live);
+      }
+      while (kept_.size() > kReportsKept) {
+        if (const auto oldest = kept_.find(kept_order_.front()); oldest != kept_.end()) {
+          reports_.unregister(oldest->second);
+          kept_.erase(oldest);
+        }
+        kept_order_.pop_front();
       }
       --busy_;
       ++completed_;
@@ -165,14 +191,17 @@ class SimWorker {
   using IssueKey = std::tuple<std::uint32_t, std::uint32_t, std::uint32_t>;  // study, trial, attempt
   static IssueKey issue_key(const msg::Candidate& c) { return {c.study_id(), c.trial_id(), c.attempt()}; }
   std::set<IssueKey> in_progress_;  // queued or running: bounded by the slots and the queue
-  std::deque<msg::RolloutReport> kept_;
+  using ReportKey = std::pair<std::uint32_t, std::uint32_t>;  // study, trial: the report topic's key
+  std::map<ReportKey, msg::RolloutReport> kept_;              // written, not yet acknowledged
+  std::deque<ReportKey> kept_order_;                           // in writing order (may name acknowledged ones)
   int busy_ = 0;
   std::uint64_t completed_ = 0;
   bool draining_ = false;
   msg::WorkerAnnouncement last_announcement_;
   std::vector<std::thread> slots_;
-  // Last: the reader's callback uses everything above, so it must be created after and destroyed first.
+  // Last: the readers' callbacks use everything above, so they must be created after and destroyed first.
   dds::Reader<msg::Candidate> candidates_;
+  dds::Reader<msg::Candidate> acknowledgements_;
 };
 
 // `--run-one`: one rollout whose request arrives as JSON on stdin; prints the report JSON and the cost.

@@ -44,6 +44,11 @@ void apply_common(Qos& qos, const TopicInfo& info) {
   qos.resource_limits().max_samples_per_instance = info.history_depth;
   qos.resource_limits().max_samples = info.max_instances * info.history_depth;
   qos.resource_limits().allocated_samples = 64;
+  // No data sharing (Fast DDS 2.9 turns it on by itself between processes on one host): its listener
+  // thread was seen spinning at 50% of a core in a loaded run and then hanging the reader's destruction,
+  // so `cpgmatch study submit` never exited; and its segments in /dev/shm (fast_datasharing_*) outlive a
+  // SIGKILLed process. Loopback UDP is fast enough for these sample rates.
+  qos.data_sharing().off();
 }
 
 }  // namespace
@@ -58,6 +63,13 @@ dds::DataWriterQos writer_qos(TopicId id) {
     qos.liveliness().kind = dds::AUTOMATIC_LIVELINESS_QOS;
     qos.liveliness().lease_duration = eprosima::fastrtps::Duration_t(kWorkerLivelinessLease_s);
     qos.liveliness().announcement_period = eprosima::fastrtps::Duration_t(kWorkerLivelinessLease_s / 4);
+  }
+  if (id == TopicId::kCandidates) {
+    // Workers filter their candidates themselves (reader side). Writer-side filtering evaluated every
+    // worker's DDS-SQL filter on the optimizer's event thread for each candidate, and each unregister
+    // (a key-only sample the filter cannot read) cost an exception per filtered reader: a quarter of
+    // the event thread's time at 20 studies on 8 workers (perf), and loop latencies of 100+ ms.
+    qos.writer_resource_limits().reader_filters_allocation = eprosima::fastrtps::ResourceLimitedContainerConfig(0, 0, 0);
   }
   // Writers never block the event loop for long when a reader is slow.
   qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(0, 100000000);

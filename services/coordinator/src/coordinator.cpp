@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -54,7 +55,12 @@ bo::ModelState model_state_from_json(const nlohmann::json& j) {
 
 Coordinator::Coordinator(study::StudyStore& store, Outbox& outbox, CoordinatorOptions options, LogFn log_info,
                          LogFn log_warning)
-    : store_(store), out_(outbox), options_(std::move(options)), info_(std::move(log_info)), warn_(std::move(log_warning)) {}
+    : store_(store),
+      out_(outbox),
+      options_(std::move(options)),
+      info_(std::move(log_info)),
+      warn_(std::move(log_warning)),
+      models_(options_.model_threads, options_.on_model_result) {}
 
 void Coordinator::reject(const std::string& what, const std::string& why) {
   ++rejected_;
@@ -140,7 +146,8 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     observations.push_back({t->x, t->cost, !t->ok});
     s.told_trials.push_back(t->trial_id);
   }
-  s.optimizer = std::make_unique<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
+  s.optimizer = std::make_shared<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
+  s.model = snapshot_of(*s.optimizer, s.told_trials);
   for (const auto* t : done) {
     const int trial_id = t->trial_id;
     msg::RolloutReport report;
@@ -152,8 +159,11 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
       report.error("stored report unreadable");
     }
     account_report(s, trial_id, t->x, report);  // the optimizer already holds it: counters and best only
-    out_.publish_trial(make_trial_record(s, trial_id, t->x, report));
+    // A finished study's records are served from the store (analyze, plot), not kept on the topic.
+    if (is_open(s)) out_.publish_trial(make_trial_record(s, trial_id, t->x, report));
   }
+  s.records_retired = !is_open(s);
+  if (s.records_retired && s.in_flight.empty()) s.optimizer.reset();  // s.model keeps the recommendation
   s.session_start_s = now_s;
   s.completed_at_session_start = s.completed;
   if (!s.in_flight.empty()) {
@@ -246,6 +256,13 @@ void Coordinator::handle_command(const msg::StudyCommand& command, double now_s)
         }
       }
     }
+  } catch (const study::StoreWriteError& e) {
+    // The store cannot record the command's effect: tell the client why, then stop the service (the
+    // caller sees the same error) rather than go on acknowledging what it cannot record.
+    reply.ok(false);
+    reply.message(e.what());
+    out_.reply(reply);
+    throw;
   } catch (const std::exception& e) {
     reply.ok(false);
     reply.message(fmt::format("internal error: {}", e.what()));
@@ -347,71 +364,153 @@ void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s
   study.dirty = true;
 }
 
-void Coordinator::fill_free_slots(double now_s) {
-  // Free slots, one entry per slot, spread across workers (most free first).
-  std::vector<Worker*> slots;
-  {
-    std::vector<Worker*> ready;
-    for (auto& [id, w] : workers_) {
-      if (w.accepting && static_cast<int>(w.assigned.size()) < w.slots) ready.push_back(&w);
+std::vector<Coordinator::Worker*> Coordinator::free_slots() {
+  std::vector<Worker*> ready;
+  std::map<Worker*, int> free;
+  for (auto& [id, w] : workers_) {
+    if (w.accepting && static_cast<int>(w.assigned.size()) < w.slots) {
+      ready.push_back(&w);
+      free[&w] = w.slots - static_cast<int>(w.assigned.size());
     }
-    std::map<Worker*, int> free;
-    for (Worker* w : ready) free[w] = w->slots - static_cast<int>(w->assigned.size());
-    bool any = true;
-    while (any) {
-      any = false;
-      for (Worker* w : ready) {
-        if (free[w] > 0) {
-          slots.push_back(w);
-          --free[w];
-          any = true;
-        }
+  }
+  std::vector<Worker*> slots;
+  bool any = true;
+  while (any) {
+    any = false;
+    for (Worker* w : ready) {
+      if (free[w] > 0) {
+        slots.push_back(w);
+        --free[w];
+        any = true;
       }
     }
   }
-  if (slots.empty() || studies_.empty()) return;
+  return slots;
+}
+
+std::vector<Coordinator::Study*> Coordinator::round_robin_order() {
   std::vector<Study*> order;
   for (auto& [id, s] : studies_) order.push_back(&s);
+  if (order.empty()) return order;
   std::rotate(order.begin(), order.begin() + (round_robin_++ % static_cast<int>(order.size())), order.end());
+  return order;
+}
 
+int Coordinator::issue_waiting_work(const std::vector<Study*>& order, double now_s) {
+  std::vector<Worker*> slots = free_slots();
   std::size_t next_slot = 0;
-  int new_budget = options_.max_new_candidates_per_tick;  // asks left this tick
   for (Study* s : order) {
     if (s->state != "running") continue;
     // Re-issues first: they are the oldest work.
     for (auto& [trial_id, f] : s->in_flight) {
-      if (next_slot == slots.size()) return;
+      if (next_slot == slots.size()) return 0;
       if (f.worker_id.empty()) issue(*s, trial_id, *slots[next_slot++], now_s, true);
     }
-    const int remaining = s->config.budget - s->completed - static_cast<int>(s->in_flight.size());
-    const int n = std::min({remaining, static_cast<int>(slots.size() - next_slot), new_budget});
-    if (n <= 0) continue;
-    new_budget -= n;
-    std::vector<Eigen::VectorXd> pending;
-    for (const auto& [trial_id, f] : s->in_flight) pending.push_back(f.x);
-    std::vector<Eigen::VectorXd> points;
-    try {
-      points = s->optimizer->ask(n, pending);
-    } catch (const std::exception& e) {
-      warn_(fmt::format("study {}: ask({}) failed: {}", s->id, n, e.what()));
-      continue;
-    }
-    std::vector<study::StoredTrial> stored;
-    for (const auto& x : points) {
-      study::StoredTrial t;
-      t.trial_id = s->next_trial_id++;
-      t.x = x;
-      t.worker_id = slots[next_slot + stored.size()]->id;
-      t.issued_at_s = wall_now();
-      stored.push_back(std::move(t));
-    }
-    store_.add_trials(s->id, stored);  // committed before anything is published
-    for (const auto& t : stored) {
-      s->in_flight[t.trial_id] = InFlight{t.x, 0, "", 0.0};
-      issue(*s, t.trial_id, *slots[next_slot++], now_s, false);
-    }
+    issue_proposed(*s, slots, next_slot, now_s);
+  }
+  return static_cast<int>(slots.size() - next_slot);
+}
+
+void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::size_t& next_slot, double now_s) {
+  std::vector<study::StoredTrial> stored;
+  while (!s.proposed.empty() && next_slot + stored.size() < slots.size()) {
+    study::StoredTrial t;
+    t.trial_id = s.next_trial_id++;
+    t.x = std::move(s.proposed.front());
+    s.proposed.pop_front();
+    t.worker_id = slots[next_slot + stored.size()]->id;
+    t.issued_at_s = wall_now();
+    stored.push_back(std::move(t));
+  }
+  if (stored.empty()) return;
+  store_.add_trials(s.id, stored);  // committed before anything is published
+  for (const auto& t : stored) {
+    s.in_flight[t.trial_id] = InFlight{t.x, 0, "", 0.0};
+    issue(s, t.trial_id, *slots[next_slot++], now_s, false);
   }
 }
+
+void Coordinator::start_model_jobs(const std::vector<Study*>& order, int free_slots) {
+  // Slots that a job already running will fill are not asked for twice.
+  int wanted = free_slots;
+  for (const auto& [id, s] : studies_) wanted -= s.asking;
+  int new_budget = options_.max_new_candidates_per_tick;  // points asked for this tick, over all studies
+  for (Study* s : order) {
+    if (s->model_busy || !s->optimizer) continue;
+    int n = 0;
+    if (s->state == "running") {
+      const int remaining = s->config.budget - s->completed - static_cast<int>(s->in_flight.size()) -
+                            static_cast<int>(s->proposed.size());
+      n = std::max(0, std::min({remaining, wanted, new_budget}));
+    }
+    if (n == 0 && s->untold.empty()) continue;
+    wanted -= n;
+    new_budget -= n;
+    start_model_job(*s, n);
+  }
+  // Studies not in the rotation (none today) keep their reports until the next tick.
+}
+
+Coordinator::ModelSnapshot Coordinator::snapshot_of(const bo::BayesianOptimizer& optimizer,
+                                                    const std::vector<int>& told_trials) {
+  ModelSnapshot m;
+  if (const auto rec = optimizer.recommended()) {
+    m.has_recommendation = true;
+    m.recommended_trial = told_trials.at(rec->observation);
+    m.recommended_predicted_cost = rec->predicted;
+    m.recommended_params = optimizer.space().to_named(optimizer.observations()[rec->observation].x);
+  }
+  return m;
+}
+
+void Coordinator::start_model_job(Study& s, int ask) {
+  // Everything the job needs is copied now: it runs while the event thread goes on changing the study.
+  std::vector<bo::Observation> tells;
+  for (auto& [trial_id, observation] : s.untold) {
+    s.told_trials.push_back(trial_id);  // the order the optimizer will hold them in
+    tells.push_back(std::move(observation));
+  }
+  s.untold.clear();
+  std::vector<Eigen::VectorXd> pending;  // points being evaluated or about to be: the liar's lies
+  for (const auto& [trial_id, f] : s.in_flight) pending.push_back(f.x);
+  pending.insert(pending.end(), s.proposed.begin(), s.proposed.end());
+  s.model_busy = true;
+  s.asking = ask;
+  const int id = s.id;
+  auto work = [this, id, optimizer = s.optimizer, told_trials = s.told_trials, tells = std::move(tells),
+               pending = std::move(pending), ask]() -> ModelPool::Completion {
+    if (options_.model_job_hook) options_.model_job_hook(id);
+    std::vector<Eigen::VectorXd> points;
+    std::string error;
+    std::optional<std::pair<ModelSnapshot, nlohmann::json>> fitted;  // what the event thread keeps and stores
+    try {
+      if (!tells.empty()) {
+        optimizer->tell_batch(tells);  // one fit for every report since the last job
+        fitted.emplace(snapshot_of(*optimizer, told_trials), model_state_json(optimizer->model_state()));
+      }
+      if (ask > 0) points = optimizer->ask(ask, pending);
+    } catch (const std::exception& e) {
+      error = e.what();  // e.g. a GP that cannot be factorised: logged, and the study asks again next tick
+    }
+    // On the event thread: only copies and the store write, never model work.
+    return [this, id, fitted = std::move(fitted), points = std::move(points), ask, error] {
+      Study* study = find_study(id);
+      if (study == nullptr) return;
+      study->model_busy = false;
+      study->asking = 0;
+      if (fitted) {
+        store_.save_model_state(id, fitted->second);
+        study->model = fitted->first;
+        study->dirty = true;
+      }
+      if (!error.empty()) warn_(fmt::format("study {}: model job (tell, then ask({})) failed: {}", id, ask, error));
+      study->proposed.insert(study->proposed.end(), points.begin(), points.end());
+    };
+  };
+  models_.submit(static_cast<std::uint64_t>(id), std::move(work));
+}
+
+int Coordinator::apply_model_results() { return models_.run_finished(); }
 
 // ---- reports -------------------------------------------------------------------------------------
 
@@ -443,7 +542,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
   s->in_flight.erase(it);
   count_report(*s, trial_id, x, r);
   out_.retire_candidate(retired);
-  out_.publish_trial(make_trial_record(*s, trial_id, x, r));
+  if (!s->records_retired) out_.publish_trial(make_trial_record(*s, trial_id, x, r));  // else: the store has it
   if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id().to_string(), r.error().to_string()));
   if (s->state == "running" && s->consecutive_failures >= options_.max_consecutive_failures) {
     s->state = "failed";
@@ -457,10 +556,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
 }
 
 void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
-  if (r.ok()) s.optimizer->tell(x, r.cost());
-  else s.optimizer->tell_failure(x);
-  s.told_trials.push_back(trial_id);
-  store_.save_model_state(s.id, model_state_json(s.optimizer->model_state()));
+  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.cost() : 0.0, !r.ok()});
   account_report(s, trial_id, x, r);
 }
 
@@ -529,19 +625,35 @@ void Coordinator::publish_state(Study& s, double now_s) {
   const double session = now_s - s.session_start_s;
   st.rollouts_per_s(session > 0.0 ? (s.completed - s.completed_at_session_start) / session : 0.0);
   st.message(s.message);
-  if (const auto rec = s.optimizer ? s.optimizer->recommended() : std::nullopt) {
-    const Eigen::VectorXd& x = s.optimizer->observations()[rec->observation].x;
+  if (s.model.has_recommendation) {
     st.has_recommendation(true);
-    st.recommended_trial(static_cast<std::uint32_t>(s.told_trials.at(rec->observation)));
-    st.recommended_predicted_cost(rec->predicted);
-    st.recommended_params(dds::to_wire(s.config.space.to_named(x)));
+    st.recommended_trial(static_cast<std::uint32_t>(s.model.recommended_trial));
+    st.recommended_predicted_cost(s.model.recommended_predicted_cost);
+    st.recommended_params(dds::to_wire(s.model.recommended_params));
   }
   out_.publish_state(st);
   s.dirty = false;
   last_state_publish_[s.id] = now_s;
 }
 
+void Coordinator::retire_finished(Study& s, double now_s) {
+  if (is_open(s) || s.records_retired) return;
+  if (s.records_leave_at_s < 0.0) s.records_leave_at_s = now_s + options_.finished_records_grace_s;
+  if (now_s < s.records_leave_at_s || s.model_busy || !s.untold.empty()) return;
+  for (const int trial_id : s.told_trials) {
+    msg::TrialRecord key;
+    key.study_id(static_cast<std::uint32_t>(s.id));
+    key.trial_id(static_cast<std::uint32_t>(trial_id));
+    out_.retire_trial(key);
+  }
+  s.records_retired = true;
+  // Its model is no longer needed (the state keeps the recommendation), unless a stopped study's
+  // candidate still reports.
+  if (s.in_flight.empty()) s.optimizer.reset();
+}
+
 void Coordinator::tick(double now_s) {
+  apply_model_results();
   std::vector<std::string> silent;
   for (const auto& [id, w] : workers_) {
     if (now_s - w.last_seen_s > options_.worker_timeout_s) silent.push_back(id);
@@ -554,8 +666,12 @@ void Coordinator::tick(double now_s) {
       unassign(s, trial_id, "lease expired");
     }
   }
-  fill_free_slots(now_s);
+  const std::vector<Study*> order = round_robin_order();
+  start_model_jobs(order, issue_waiting_work(order, now_s));
+  // Without model threads the jobs just started have finished already: issue their points now.
+  if (apply_model_results() > 0) issue_waiting_work(order, now_s);
   for (auto& [sid, s] : studies_) {
+    retire_finished(s, now_s);
     const auto last = last_state_publish_.find(sid);
     if (s.dirty && (last == last_state_publish_.end() || now_s - last->second >= kStatePublishPeriod_s)) {
       publish_state(s, now_s);

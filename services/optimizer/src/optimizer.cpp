@@ -105,6 +105,16 @@ void BayesianOptimizer::tell_failure(const Eigen::VectorXd& x) {
   record({x, 0.0, true});
 }
 
+void BayesianOptimizer::tell_batch(const std::vector<Observation>& batch) {
+  for (const auto& o : batch) {
+    space_.check_point(o.x);
+    if (!o.failed && !std::isfinite(o.y)) throw InputError(fmt::format("tell_batch: cost must be a finite number, got {}", o.y));
+  }
+  if (batch.empty()) return;
+  observations_.insert(observations_.end(), batch.begin(), batch.end());
+  if (model_due()) refit();
+}
+
 bool BayesianOptimizer::model_due() const {
   // The model is first used once the initial design has been evaluated (and needs two real values), and
   // is not needed once the budget is spent.

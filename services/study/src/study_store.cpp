@@ -5,6 +5,7 @@
 
 #include <sqlite3.h>
 
+#include <cstring>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -12,6 +13,25 @@
 namespace cpgmatch::study {
 
 namespace {
+
+// A failed SQLite call as an exception: failures to write (full disk, read-only file, I/O) become a
+// StoreWriteError in plain words with the store's path and the system's reason; others runtime_error.
+[[noreturn]] void throw_sqlite_error(sqlite3* db, int rc, const std::string& what) {
+  const int primary = rc & 0xff;
+  const char* path = sqlite3_db_filename(db, "main");
+  const std::string store = path != nullptr && *path != '\0' ? path : "(unknown path)";
+  const int system_errno = sqlite3_system_errno(db);
+  const std::string system = system_errno != 0 ? fmt::format(" ({})", std::strerror(system_errno)) : "";
+  std::string plain;
+  if (primary == SQLITE_FULL) plain = "the disk is full";
+  if (primary == SQLITE_READONLY) plain = "the store is read-only (no write permission on the file or its folder?)";
+  if (primary == SQLITE_IOERR) plain = "the disk failed to write (full, removed or failing?)";
+  if (primary == SQLITE_CANTOPEN) plain = "a file beside the store cannot be created (read-only folder?)";
+  if (!plain.empty()) {
+    throw StoreWriteError(fmt::format("study store {}: cannot write: {}: {}{}", store, plain, sqlite3_errmsg(db), system));
+  }
+  throw std::runtime_error(fmt::format("study store {}: {}: {}", store, what, sqlite3_errmsg(db)));
+}
 
 // A prepared statement that finalizes itself; bind() takes 1-based positions like SQLite.
 class Statement {
@@ -35,7 +55,7 @@ class Statement {
     const int rc = sqlite3_step(stmt_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    throw std::runtime_error(fmt::format("study store: {}", sqlite3_errmsg(db_)));
+    throw_sqlite_error(db_, rc, "step");
   }
   void run() {
     while (step()) {
@@ -111,6 +131,10 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
     exec(R"(CREATE TABLE IF NOT EXISTS model_states(
              study_id INTEGER PRIMARY KEY REFERENCES studies(study_id),
              state_json TEXT NOT NULL))");
+  } catch (const StoreWriteError&) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;  // names the path already
   } catch (const std::exception& e) {
     sqlite3_close(db_);
     db_ = nullptr;
@@ -131,12 +155,15 @@ void StudyStore::add_column_if_missing(const std::string& table, const std::stri
 }
 
 void StudyStore::exec(const std::string& sql) const {
-  char* error = nullptr;
-  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &error) != SQLITE_OK) {
-    const std::string why = error ? error : "unknown error";
-    sqlite3_free(error);
-    throw std::runtime_error(fmt::format("study store: {}: {}", sql.substr(0, 60), why));
-  }
+  const int rc = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, nullptr);
+  if (rc != SQLITE_OK) throw_sqlite_error(db_, rc, sql.substr(0, 60));
+}
+
+void StudyStore::require_writable() const {
+  // BEGIN IMMEDIATE takes the write lock, which needs write access to the file (and, in WAL mode, to the
+  // folder for the -wal and -shm files); rolling back writes nothing.
+  exec("BEGIN IMMEDIATE");
+  exec("ROLLBACK");
 }
 
 int StudyStore::create_study(const std::string& name, const std::string& config_yaml, const std::string& source_name,

@@ -1,6 +1,12 @@
 // The optimizer service's logic, free of DDS entities: wire samples come in through handle_*(), and
-// everything to publish goes out through an Outbox. The DDS shell (services/optimizer_main.cpp) only
-// moves samples between the two; tests drive a Coordinator directly with a recording Outbox.
+// everything to publish goes out through an Outbox. The DDS shell (services/optimizer_service/main.cpp)
+// only moves samples between the two; tests drive a Coordinator directly with a recording Outbox.
+//
+// Threads: every public member runs on one thread (the event thread), which owns the store and all
+// bookkeeping. Model work (a study's tells with their GP fit, its asks with their acquisition
+// optimisation) runs as jobs on a ModelPool: one job per study at a time, so a study's tells are applied
+// in report order before its next ask, whatever the thread timing; different studies' jobs run in
+// parallel. Results come back through tick() (or apply_model_results()).
 //
 // Rules it keeps:
 //  * store first: a candidate is in the store before it is published, a report before it is told to the
@@ -22,6 +28,7 @@
 #include <vector>
 
 #include "cpgmatch/bo/optimizer.hpp"
+#include "cpgmatch/service/model_pool.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/study/study_config.hpp"
 #include "cpgmatch/study/study_store.hpp"
@@ -35,6 +42,8 @@ class Outbox {
   virtual void send_candidate(const msg::Candidate& c) = 0;
   virtual void retire_candidate(const msg::Candidate& c) = 0;  // report received: drop it from the topic
   virtual void publish_trial(const msg::TrialRecord& t) = 0;
+  // A finished study's record leaves the topic (its key is set; the store keeps the record).
+  virtual void retire_trial(const msg::TrialRecord& t) = 0;
   virtual void publish_state(const msg::StudyState& s) = 0;
   virtual void reply(const msg::CommandReply& r) = 0;
 };
@@ -46,11 +55,23 @@ struct CoordinatorOptions {
   // ticks (every 20 ms) instead of one ask() that blocks the event loop for seconds; heartbeats, reports
   // and commands are served in between.
   int max_new_candidates_per_tick = 32;
+  // A study's trial records stay on the (transient-local) trials topic while it is open and this long
+  // after it ended, for clients following it live (`study run` collects them at the end); then they leave
+  // the DDS writer, whose memory would otherwise grow with every trial ever run. The store keeps them.
+  double finished_records_grace_s = 30.0;
   CpgParameters base_parameters;       // values of CPG parameters a study neither optimises nor fixes
   // Every `now_s` handed to the coordinator is *monotonic* time (timeouts and leases must not fire, or
   // hang, when the wall clock is stepped); this clock gives the Unix time written to the store and shown
   // as a study's age. Empty: the system clock.
   std::function<double()> wall_clock_s;
+  // Threads for model fits and acquisition optimisation (0: run them inline on the event thread, which
+  // is deterministic to the call and what unit tests of the bookkeeping use).
+  int model_threads = 0;
+  // Called from a model thread whenever a model job has finished: wake the event loop so it applies the
+  // result at once instead of at its next timer tick. Must only signal.
+  std::function<void()> on_model_result;
+  // Called on the model thread at the start of every model job (tests hold a job with it).
+  std::function<void(int study_id)> model_job_hook;
 };
 
 using LogFn = std::function<void(const std::string&)>;
@@ -68,8 +89,15 @@ class Coordinator {
   void handle_report(const msg::RolloutReport& report, double now_s);
   void handle_worker(const msg::WorkerAnnouncement& announcement, double now_s);
   void handle_worker_gone(std::uint64_t worker_key, double now_s);
-  // Expires silent workers and overdue leases, fills free slots, publishes changed study states.
+  // Applies finished model results, expires silent workers and overdue leases, fills free slots (starting
+  // model jobs for the points still needed), publishes changed study states.
   void tick(double now_s);
+  // Runs the event-thread half of every finished model job (tick() does it too); returns how many.
+  int apply_model_results();
+  // Blocks until no model job is running or queued (their results are applied by the next tick()).
+  // For tests and an orderly shutdown.
+  void wait_for_models() const { models_.wait_until_finished(); }
+  int model_jobs_outstanding() const { return models_.outstanding(); }
 
   // Numbers for logs and tests.
   int live_workers() const { return static_cast<int>(workers_.size()); }
@@ -84,11 +112,25 @@ class Coordinator {
     std::string worker_id;  // empty: waiting for a free slot
     double deadline_s = 0.0;
   };
+  // What the event thread knows of a study's model, from its latest model job.
+  struct ModelSnapshot {
+    bool has_recommendation = false;
+    int recommended_trial = 0;
+    double recommended_predicted_cost = 0.0;
+    std::map<std::string, double> recommended_params;
+  };
   struct Study {
     int id = 0;
     std::string name;
     study::StudyConfig config;
-    std::unique_ptr<bo::BayesianOptimizer> optimizer;
+    // Once the study is open, only its model jobs touch the optimizer (one at a time): the event thread
+    // reads the model through `model` and never waits for it.
+    std::shared_ptr<bo::BayesianOptimizer> optimizer;
+    ModelSnapshot model;
+    bool model_busy = false;                 // a model job of this study is queued or running
+    int asking = 0;                          // points that job asks for
+    std::vector<std::pair<int, bo::Observation>> untold;  // counted reports for the next job, in report order
+    std::deque<Eigen::VectorXd> proposed;    // asked for, not yet stored and issued
     std::map<int, InFlight> in_flight;   // by trial id
     std::vector<int> told_trials;        // trial id of each optimizer observation, in the order told
     int next_trial_id = 0;
@@ -102,6 +144,8 @@ class Coordinator {
     double created_at_s = 0.0, session_start_s = 0.0;
     int completed_at_session_start = 0;
     bool dirty = true;
+    double records_leave_at_s = -1.0;  // monotonic time its trial records leave the topic (<0: not set)
+    bool records_retired = false;      // they have (or, after a restart, were never published)
   };
   struct Worker {
     std::string id;
@@ -118,9 +162,19 @@ class Coordinator {
   void open_study(Study&& study, const study::StoredStudy* stored, double now_s);
   void drop_worker(const std::string& worker_id, const std::string& why, double now_s);
   void unassign(Study& study, int trial_id, const std::string& why);
-  void fill_free_slots(double now_s);
+  // Free worker slots, one entry per slot, spread across workers (most free first).
+  std::vector<Worker*> free_slots();
+  // Running studies, rotated by one each tick so that no study is always served first.
+  std::vector<Study*> round_robin_order();
+  // Re-issues, then proposed points, to free slots; returns how many slots are still free.
+  int issue_waiting_work(const std::vector<Study*>& order, double now_s);
+  void issue_proposed(Study& study, std::vector<Worker*>& slots, std::size_t& next_slot, double now_s);
+  // Starts a model job for each study with reports to tell or free slots to ask for (per-tick cap).
+  void start_model_jobs(const std::vector<Study*>& order, int free_slots);
+  void start_model_job(Study& study, int ask);
+  static ModelSnapshot snapshot_of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials);
   void issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue);
-  // A new report: told to the optimizer (whose state is then saved), then accounted.
+  // A new report: queued for the study's next model job (which tells it and saves the model state), then accounted.
   void count_report(Study& study, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& report);
   // Counters and best of a report the optimizer already holds (a restart's replay).
   void account_report(Study& study, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& report);
@@ -133,6 +187,8 @@ class Coordinator {
   msg::TrialRecord make_trial_record(const Study& study, int trial_id, const Eigen::VectorXd& x,
                                      const msg::RolloutReport& report) const;
   void publish_state(Study& study, double now_s);
+  // A finished study, its grace period over: trial records off the topic, model dropped.
+  void retire_finished(Study& study, double now_s);
   bool is_open(const Study& s) const { return s.state == "running" || s.state == "paused"; }
 
   study::StudyStore& store_;
@@ -149,6 +205,7 @@ class Coordinator {
   std::deque<std::pair<std::string, std::uint64_t>> reply_order_;
   int round_robin_ = 0;
   std::uint64_t rejected_ = 0;
+  ModelPool models_;  // last member: destroyed first, so no job outlives what it refers to
 };
 
 }  // namespace cpgmatch::service

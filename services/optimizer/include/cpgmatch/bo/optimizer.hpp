@@ -7,7 +7,7 @@
 //   opt.tell_failure(batch[0]);              // a crashed or timed-out evaluation
 //   auto next = opt.ask(1, {batch[1], batch[3]});   // pass the points still being evaluated
 //
-// State changes only in tell()/tell_failure(): each one refits the GP (hyperparameters by marginal
+// State changes only in tell()/tell_failure()/tell_batch(): each one refits the GP (hyperparameters by marginal
 // likelihood) and, as in scikit-optimize, optimises every acquisition of the portfolio and updates the
 // gp_hedge gains with the new model's mean at the previous proposals. ask() is a pure function of that
 // state and the pending points, with randomness seeded by (seed, number of points issued). Therefore
@@ -95,6 +95,10 @@ class BayesianOptimizer {
   // Throws InputError for a point outside the space or a non-finite y (use tell_failure instead).
   void tell(const Eigen::VectorXd& x, double y);
   void tell_failure(const Eigen::VectorXd& x);
+  // Several results at once (failed ones with failed = true), in order, with one model fit for all of
+  // them: what a service does with the reports that arrived while its model was busy. Every point is
+  // checked before any is recorded.
+  void tell_batch(const std::vector<Observation>& batch);
 
   const std::vector<Observation>& observations() const { return observations_; }
   std::optional<Observation> best() const;  // lowest successful y

@@ -9,6 +9,7 @@
 
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,14 @@ struct sqlite3;
 namespace cpgmatch::study {
 
 enum class Durability { kNormal, kFull };
+
+// The store could not record something: disk full, a read-only file or folder, an I/O error. The message
+// names the store's path and the cause in plain words. The optimizer service stops on it instead of going
+// on: it would otherwise acknowledge candidates and reports it could not record.
+class StoreWriteError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 enum class TrialStatus { kInFlight, kDone };
 
@@ -72,6 +81,10 @@ class StudyStore {
   // Replaces the study's saved optimizer state (see bo::ModelState): what a restart needs besides the
   // observations to resume exactly, without refitting the model once per stored result.
   void save_model_state(int study_id, const nlohmann::json& state);
+
+  // Throws StoreWriteError unless the store can be written now (a read-only file or folder, say): the
+  // optimizer checks this before it serves anything. Readers such as `cpgmatch analyze` do not need it.
+  void require_writable() const;
 
   std::vector<StoredStudy> load_all() const;
   std::optional<StoredStudy> load(int study_id) const;
