@@ -18,6 +18,8 @@
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/study/store_lock.hpp"
@@ -137,6 +139,9 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", log_level, "log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
+  runtime::DdsFlags dds_flags;
+  runtime::add_dds_flags(app, dds_flags);
+  runtime::add_version_flag(app, "cpgmatch-optimizer");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -147,6 +152,8 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
   return run_reporting_errors([&] {
+    runtime::export_config_dir();
+    runtime::apply_dds_flags(dds_flags);
     return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
                         worker_timeout_s, localhost_only);
   });

@@ -41,6 +41,7 @@ std::string read_file(const std::string& path) {
 }
 
 client::StudyClient connect(const ServiceFlags& f, bool trials = false) {
+  runtime::apply_dds_flags(f.dds);
   return client::StudyClient(f.resolved_domain(), f.localhost_only, trials);
 }
 
@@ -98,6 +99,7 @@ void add_service_flags(CLI::App* cmd, ServiceFlags& f) {
   cmd->add_option("--domain", f.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
   cmd->add_flag("--localhost-only", f.localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   cmd->add_option("--timeout", f.timeout_s, "seconds to wait for the optimizer")->capture_default_str();
+  runtime::add_dds_flags(*cmd, f.dds);
 }
 
 bool is_terminal(const std::string& state) { return state == "done" || state == "failed" || state == "stopped"; }

@@ -6,12 +6,15 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/runtime/shared_flags.hpp"
+
 namespace cpgmatch::cli {
 
 struct ServiceFlags {
   int domain = -1;              // -1: $CPGMATCH_DOMAIN, else 0
   bool localhost_only = false;
   double timeout_s = 10.0;
+  runtime::DdsFlags dds;       // --dds-profile, --discovery-server
   int resolved_domain() const;  // validates; InputError naming --domain or CPGMATCH_DOMAIN
 };
 

@@ -1,0 +1,44 @@
+#include "cpgmatch/runtime/shared_flags.hpp"
+
+#include <filesystem>
+#include <system_error>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/dds/profile.hpp"
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/version.hpp"
+
+namespace cpgmatch::runtime {
+
+void add_version_flag(CLI::App& app, const std::string& program) {
+  app.set_version_flag("--version", version_text(program), "print the version and git revision, then exit");
+}
+
+void add_dds_flags(CLI::App& app, DdsFlags& flags) {
+  app.add_option("--dds-profile", flags.profile,
+                 "Fast DDS profile: local (multicast discovery), cluster (client of discovery servers, UDP only) "
+                 "or an XML file (default: $FASTRTPS_DEFAULT_PROFILES_FILE, else local)");
+  app.add_option("--discovery-server", flags.discovery_servers,
+                 "discovery servers IP:PORT[;IP:PORT...], the position being the server id "
+                 "(default: $ROS_DISCOVERY_SERVER)");
+}
+
+std::string profiles_file_for(const std::string& profile) {
+  if (profile == "local" || profile == "cluster") return (fastdds_profiles_dir() / (profile + ".xml")).string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(profile, ec)) {
+    throw InputError(fmt::format("--dds-profile: '{}' is neither local, cluster nor an XML profiles file", profile));
+  }
+  return profile;
+}
+
+void apply_dds_flags(const DdsFlags& flags) {
+  dds::ProfileSelection selection;
+  if (!flags.profile.empty()) selection.profiles_file = profiles_file_for(flags.profile);
+  selection.discovery_servers = flags.discovery_servers;
+  dds::select_profile(selection);
+}
+
+}  // namespace cpgmatch::runtime
