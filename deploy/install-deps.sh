@@ -9,6 +9,8 @@ PACKAGES=(
   cmake g++ make pkg-config
   # transport
   libfastrtps-dev fastddsgen fastdds-tools
+  # DDS-Security: keystores (deploy/make-study-pki.sh) and their certificate checks
+  openssl libssl-dev
   # a second DDS vendor, for the cross-vendor test (Cyclone DDS reads our study state)
   cyclonedds-dev cyclonedds-tools
   # science: linear algebra, physics, optimisation, quasi-random sequences

@@ -140,7 +140,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
   runtime::DdsFlags dds_flags;
-  runtime::add_dds_flags(app, dds_flags);
+  runtime::add_dds_flags(app, dds_flags, "optimizer");
   runtime::add_version_flag(app, "cpgmatch-optimizer");
   try {
     app.parse(argc, argv);

@@ -18,7 +18,8 @@ struct ServiceFlags {
   int resolved_domain() const;  // validates; InputError naming --domain or CPGMATCH_DOMAIN
 };
 
-void add_service_flags(CLI::App* cmd, ServiceFlags& flags);
+// default_enclave: the DDS-Security identity the command uses without --enclave (operator, viewer).
+void add_service_flags(CLI::App* cmd, ServiceFlags& flags, const std::string& default_enclave);
 
 // Terminal study states: done, failed, stopped.
 bool is_terminal(const std::string& state);

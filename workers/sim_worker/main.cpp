@@ -211,7 +211,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
   runtime::DdsFlags dds_flags;
-  runtime::add_dds_flags(app, dds_flags);
+  runtime::add_dds_flags(app, dds_flags, "worker");
   runtime::add_version_flag(app, "cpgmatch-sim-worker");
   app.add_flag("--run-one", run_one, "internal: one rollout, request as JSON on stdin")->group("");
   try {

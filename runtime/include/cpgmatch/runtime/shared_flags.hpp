@@ -5,6 +5,9 @@
 //                                      FILE = any Fast DDS XML profiles file. Without the flag Fast DDS
 //                                      decides as usual ($FASTRTPS_DEFAULT_PROFILES_FILE, else defaults).
 //   --discovery-server IP:PORT[;...]   the discovery servers (same as $ROS_DISCOVERY_SERVER)
+//   --keystore DIR, --enclave NAME     DDS-Security: a keystore made by deploy/make-study-pki.sh (default
+//                                      $CPGMATCH_KEYSTORE; none: no security) and the identity in it
+//                                      (default per program: optimizer, worker, operator, viewer)
 #pragma once
 
 #include <string>
@@ -16,10 +19,13 @@ namespace cpgmatch::runtime {
 struct DdsFlags {
   std::string profile;            // empty: Fast DDS's own choice
   std::string discovery_servers;  // empty: $ROS_DISCOVERY_SERVER
+  std::string keystore;           // empty: $CPGMATCH_KEYSTORE, else no security
+  std::string enclave;            // empty: the program's default enclave
+  std::string default_enclave;
 };
 
 void add_version_flag(CLI::App& app, const std::string& program);
-void add_dds_flags(CLI::App& app, DdsFlags& flags);
+void add_dds_flags(CLI::App& app, DdsFlags& flags, const std::string& default_enclave);
 
 // The XML file a --dds-profile value names: local and cluster are the shipped profiles, anything else
 // a path. InputError naming --dds-profile when it is neither.
