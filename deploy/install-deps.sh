@@ -9,6 +9,8 @@ PACKAGES=(
   cmake g++ make pkg-config
   # transport
   libfastrtps-dev fastddsgen fastdds-tools
+  # DDS-Security: keystores (deploy/make-study-pki.sh) and their certificate checks
+  openssl libssl-dev
   # a second DDS vendor, for the cross-vendor test (Cyclone DDS reads our study state)
   cyclonedds-dev cyclonedds-tools
   # science: linear algebra, physics, optimisation, quasi-random sequences
@@ -17,6 +19,9 @@ PACKAGES=(
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsqlite3-dev sqlite3
   # tests, benchmarks, plots
   libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox time python3
+  # installation and packaging: man pages from --help, the .deb's dependencies (dpkg-shlibdeps),
+  # network namespaces for the cluster test
+  help2man dpkg-dev iproute2
 )
 
 missing=()

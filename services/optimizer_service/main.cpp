@@ -22,6 +22,8 @@
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/study/store_lock.hpp"
@@ -191,6 +193,9 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", log_level, "log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
+  runtime::DdsFlags dds_flags;
+  runtime::add_dds_flags(app, dds_flags, "optimizer");
+  runtime::add_version_flag(app, "cpgmatch-optimizer");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -202,6 +207,8 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGUSR1, service::on_stats_signal);
   return run_reporting_errors([&] {
+    runtime::export_config_dir();
+    runtime::apply_dds_flags(dds_flags);
     return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
                         worker_timeout_s, localhost_only, model_threads);
   });

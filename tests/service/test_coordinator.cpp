@@ -159,6 +159,46 @@ TEST_F(CoordinatorTest, DuplicateAndForgedReportsAreNotCounted) {
   EXPECT_EQ(out_.states.back().completed(), 1u);
 }
 
+TEST_F(CoordinatorTest, AReportCountsOnlyFromTheWorkerItsCandidateWasAssignedTo) {
+  submit(4, 4);
+  worker("a", 1);
+  worker("b", 1);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 2u);
+  const msg::Candidate to_a = out_.candidates[0].worker_id().to_string() == "a" ? out_.candidates[0] : out_.candidates[1];
+  // Any participant can read the candidates; answering one that went to someone else must not count.
+  msg::RolloutReport forged = report_for(to_a, -1000.0);
+  forged.worker_id("b");  // another live worker
+  coordinator_->handle_report(forged, now_);
+  forged.worker_id("intruder");  // no worker at all
+  coordinator_->handle_report(forged, now_);
+  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(coordinator_->rejected_samples(), 2u);
+  // The assigned worker's own report still counts, once.
+  coordinator_->handle_report(report_for(to_a, 1.0), now_);
+  ASSERT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(out_.trials[0].report().worker_id().to_string(), "a");
+  EXPECT_DOUBLE_EQ(out_.trials[0].report().cost(), 1.0);
+  coordinator_->tick(now_ += 1);
+  EXPECT_EQ(out_.states.back().completed(), 1u);
+}
+
+TEST_F(CoordinatorTest, AfterARestartTheStoredAssignmentStillDecidesWhoMayReport) {
+  submit(4, 4);
+  worker("a", 1);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 1u);
+  const msg::Candidate in_flight = out_.candidates[0];
+  open();  // restart on the same store: the trial is in flight, assigned to a in the store
+  coordinator_->resume_from_store(now_);
+  msg::RolloutReport forged = report_for(in_flight, -1000.0);
+  forged.worker_id("intruder");
+  coordinator_->handle_report(forged, now_);
+  EXPECT_EQ(out_.trials.size(), 0u);
+  coordinator_->handle_report(report_for(in_flight, 1.0), now_);
+  EXPECT_EQ(out_.trials.size(), 1u);
+}
+
 TEST_F(CoordinatorTest, ALostWorkersCandidatesGoToAnotherWorker) {
   submit(6, 6);
   worker("a", 2);

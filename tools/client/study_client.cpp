@@ -21,13 +21,7 @@ namespace cpgmatch::client {
 struct StudyClient::Impl {
   Impl(int domain, bool localhost_only, bool read_trials)
       : participant(dds::ParticipantConfig{domain, "cpgmatch-cli", localhost_only}),
-        commands(participant),
         client_id(fmt::format("cli-{}-{}", getpid(), std::random_device{}())) {
-    replies = std::make_unique<dds::Reader<msg::CommandReply>>(participant, [this](const msg::CommandReply& r) {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (r.client_id().to_string() == client_id) received[r.correlation_id()] = r;
-      changed.notify_all();
-    });
     state_reader = std::make_unique<dds::Reader<msg::StudyState>>(participant, [this](const msg::StudyState& s) {
       std::lock_guard<std::mutex> lock(mutex);
       study_states[static_cast<int>(s.study_id())] = dds::to_json(s);
@@ -50,11 +44,24 @@ struct StudyClient::Impl {
     }
   }
 
+  // The command writer and the reply reader exist only in clients that send commands: with DDS-Security
+  // a viewer's permissions allow neither, and merely creating them would fail.
+  void open_command_channel() {
+    if (commands) return;
+    replies = std::make_unique<dds::Reader<msg::CommandReply>>(participant, [this](const msg::CommandReply& r) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (r.client_id().to_string() == client_id) received[r.correlation_id()] = r;
+      changed.notify_all();
+    });
+    commands = std::make_unique<dds::Writer<msg::StudyCommand>>(participant);
+  }
+
   CommandResult send(msg::StudyCommand command, double timeout_s) {
+    open_command_channel();
     const auto timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
     // A command written before the optimizer's reader and our reply reader are matched would be lost
     // (volatile topic), so wait for both directions first.
-    if (!commands.matched().wait_for(1, timeout) || !replies->matched().wait_for(1, timeout)) {
+    if (!commands->matched().wait_for(1, timeout) || !replies->matched().wait_for(1, timeout)) {
       throw std::runtime_error(fmt::format("no optimizer answered on DDS domain {} within {:.0f} s",
                                            participant.domain(), timeout_s));
     }
@@ -70,7 +77,7 @@ struct StudyClient::Impl {
         throw std::runtime_error(fmt::format("the optimizer did not reply within {:.0f} s", timeout_s));
       }
       lock.unlock();
-      if (!commands.write(command)) throw std::runtime_error("DDS write of the command failed");
+      if (!commands->write(command)) throw std::runtime_error("DDS write of the command failed");
       lock.lock();
       changed.wait_until(lock, std::min(deadline, std::chrono::steady_clock::now() + std::chrono::seconds(2)),
                          [&] { return received.count(command.correlation_id()) > 0; });
@@ -80,7 +87,7 @@ struct StudyClient::Impl {
   }
 
   dds::Participant participant;
-  dds::Writer<msg::StudyCommand> commands;
+  std::unique_ptr<dds::Writer<msg::StudyCommand>> commands;  // see open_command_channel()
   std::string client_id;
   mutable std::mutex mutex;
   std::condition_variable changed;

@@ -41,6 +41,7 @@ std::string read_file(const std::string& path) {
 }
 
 client::StudyClient connect(const ServiceFlags& f, bool trials = false) {
+  runtime::apply_dds_flags(f.dds);
   return client::StudyClient(f.resolved_domain(), f.localhost_only, trials);
 }
 
@@ -94,10 +95,11 @@ int ServiceFlags::resolved_domain() const {
   return dds::default_domain();
 }
 
-void add_service_flags(CLI::App* cmd, ServiceFlags& f) {
+void add_service_flags(CLI::App* cmd, ServiceFlags& f, const std::string& default_enclave) {
   cmd->add_option("--domain", f.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
   cmd->add_flag("--localhost-only", f.localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   cmd->add_option("--timeout", f.timeout_s, "seconds to wait for the optimizer")->capture_default_str();
+  runtime::add_dds_flags(*cmd, f.dds, default_enclave);
 }
 
 bool is_terminal(const std::string& state) { return state == "done" || state == "failed" || state == "stopped"; }
@@ -125,7 +127,7 @@ void add_study_service_commands(CLI::App* study) {
     cmd->add_flag("--wait", o->wait, "wait until the study has finished, showing progress");
     cmd->add_flag("--json", o->json, "print the result as JSON");
     cmd->add_flag("--quiet", o->quiet, "no progress output");
-    add_service_flags(cmd, o->service);
+    add_service_flags(cmd, o->service, "operator");
     cmd->callback([o] {
       const std::string text = read_file(o->config);
       // Checked here first, with the same rules as the service: a bad file exits 2 at once, naming the
@@ -153,7 +155,7 @@ void add_study_service_commands(CLI::App* study) {
     auto o = std::make_shared<Options>();
     CLI::App* cmd = study->add_subcommand(kind, fmt::format("{} a study on the optimizer service", kind));
     cmd->add_option("id", o->study_id, "study id")->required();
-    add_service_flags(cmd, o->service);
+    add_service_flags(cmd, o->service, "operator");
     const std::string k = kind;
     cmd->callback([o, k] {
       client::StudyClient c = connect(o->service);
@@ -175,7 +177,7 @@ void add_service_commands(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand("status", "studies on the optimizer service");
     cmd->add_option("--study", o->study_id, "only this study");
     cmd->add_flag("--json", o->json, "JSON: one object with --study, else an array");
-    add_service_flags(cmd, o->service);
+    add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
       if (o->study_id >= 0) {
@@ -211,7 +213,7 @@ void add_service_commands(CLI::App& app) {
     auto o = std::make_shared<Options>();
     CLI::App* cmd = app.add_subcommand("watch", "stream study progress until the studies finish (Ctrl-C to leave)");
     cmd->add_option("--study", o->study_id, "only this study");
-    add_service_flags(cmd, o->service);
+    add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
       require_optimizer(c, o->service);
@@ -240,7 +242,7 @@ void add_service_commands(CLI::App& app) {
     auto o = std::make_shared<Options>();
     CLI::App* cmd = app.add_subcommand("workers", "live workers on the domain");
     cmd->add_flag("--json", o->json, "JSON array");
-    add_service_flags(cmd, o->service);
+    add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
       c.wait_for_optimizer(o->service.timeout_s, 1.0);  // workers announce every 0.5 s

@@ -4,10 +4,13 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.hpp"
+#include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/shared_flags.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"cpgmatch: learn to match a CPG to a legged robot's natural dynamics"};
   app.require_subcommand(1);
+  cpgmatch::runtime::add_version_flag(app, "cpgmatch");
   cpgmatch::cli::add_rollout_command(app);
   cpgmatch::cli::add_bench_optimizer_command(app);
   cpgmatch::cli::add_optimize_command(app);
@@ -18,6 +21,7 @@ int main(int argc, char** argv) {
   cpgmatch::cli::add_plot_command(app);
   cpgmatch::cli::add_reproduce_command(app);
   try {
+    cpgmatch::runtime::export_config_dir();  // before parsing: subcommands run inside parse()
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);

@@ -6,16 +6,20 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/runtime/shared_flags.hpp"
+
 namespace cpgmatch::cli {
 
 struct ServiceFlags {
   int domain = -1;              // -1: $CPGMATCH_DOMAIN, else 0
   bool localhost_only = false;
   double timeout_s = 10.0;
+  runtime::DdsFlags dds;       // --dds-profile, --discovery-server
   int resolved_domain() const;  // validates; InputError naming --domain or CPGMATCH_DOMAIN
 };
 
-void add_service_flags(CLI::App* cmd, ServiceFlags& flags);
+// default_enclave: the DDS-Security identity the command uses without --enclave (operator, viewer).
+void add_service_flags(CLI::App* cmd, ServiceFlags& flags, const std::string& default_enclave);
 
 // Terminal study states: done, failed, stopped.
 bool is_terminal(const std::string& state);

@@ -29,6 +29,8 @@
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/shared_flags.hpp"
 #include "rollout_slot.hpp"
 
 namespace cpgmatch::worker {
@@ -237,6 +239,9 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", log_level, "log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
+  runtime::DdsFlags dds_flags;
+  runtime::add_dds_flags(app, dds_flags, "worker");
+  runtime::add_version_flag(app, "cpgmatch-sim-worker");
   app.add_flag("--run-one", run_one, "internal: one rollout, request as JSON on stdin")->group("");
   try {
     app.parse(argc, argv);
@@ -246,7 +251,9 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("worker"));
   spdlog::set_level(spdlog::level::from_str(log_level));
   return run_reporting_errors([&] {
+    runtime::export_config_dir();
     if (run_one) return worker::run_one();
+    runtime::apply_dds_flags(dds_flags);
     if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
     cpgmatch::dds::validate_domain(o.domain);
     if (o.slots == -1) o.slots = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

@@ -10,6 +10,8 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/dds/domain.hpp"
+#include "cpgmatch/dds/profile.hpp"
+#include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch_msgsPubSubTypes.h"
 #include "cpgmatch_msgsTypeObject.h"
@@ -51,6 +53,8 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
   }
   fdds::DomainParticipantQos qos;
   factory->get_default_participant_qos(qos);
+  apply_discovery_servers(qos);
+  apply_security(qos);
   qos.name(config.name);
   if (config.localhost_only) {
     // UDP on 127.0.0.1 only, discovery by unicast to the well-known ports of the first 64 participant

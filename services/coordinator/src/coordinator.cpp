@@ -131,7 +131,8 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
       if (t.status == study::TrialStatus::kDone) {
         done.push_back(&t);
       } else {
-        s.in_flight[t.trial_id] = InFlight{t.x, t.attempt, "", 0.0};  // re-issued once a slot is free
+        // Re-issued once a slot is free; the worker it last went to may still report that attempt.
+        s.in_flight[t.trial_id] = InFlight{t.x, t.attempt, "", 0.0, {{t.attempt, t.worker_id}}};
       }
     }
   }
@@ -358,6 +359,7 @@ void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s
     store_.reissue(study.id, trial_id, f.attempt, worker.id, wall_now());
   }
   f.worker_id = worker.id;
+  f.issued_to[f.attempt] = worker.id;
   f.deadline_s = now_s + study.config.effective_lease_s();
   worker.assigned.insert({study.id, trial_id});
   out_.send_candidate(make_candidate(study, trial_id, f));
@@ -425,7 +427,7 @@ void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::siz
   if (stored.empty()) return;
   store_.add_trials(s.id, stored);  // committed before anything is published
   for (const auto& t : stored) {
-    s.in_flight[t.trial_id] = InFlight{t.x, 0, "", 0.0};
+    s.in_flight[t.trial_id] = InFlight{t.x, 0, "", 0.0, {}};
     issue(s, t.trial_id, *slots[next_slot++], now_s, false);
   }
 }
@@ -531,6 +533,11 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
   }
   if (static_cast<int>(r.attempt()) > it->second.attempt) {
     return reject(what, fmt::format("attempt {} was never issued (last: {})", r.attempt(), it->second.attempt));
+  }
+  if (const auto to = it->second.issued_to.find(static_cast<int>(r.attempt()));
+      to == it->second.issued_to.end() || to->second != r.worker_id().to_string()) {
+    return reject(what, fmt::format("attempt {} was assigned to {}", r.attempt(),
+                                    to == it->second.issued_to.end() ? std::string("no worker") : to->second));
   }
   const Eigen::VectorXd x = it->second.x;
   if (!store_.complete_trial(s->id, trial_id, r.ok(), r.ok() ? r.cost() : 0.0, dds::to_json(r), wall_now())) {

@@ -111,6 +111,9 @@ class Coordinator {
     int attempt = 0;
     std::string worker_id;  // empty: waiting for a free slot
     double deadline_s = 0.0;
+    // The worker each attempt was issued to: only that worker's report for that attempt counts, so a
+    // participant that merely reads candidates cannot answer them.
+    std::map<int, std::string> issued_to;
   };
   // What the event thread knows of a study's model, from its latest model job.
   struct ModelSnapshot {

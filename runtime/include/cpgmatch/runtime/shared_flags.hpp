@@ -1,0 +1,37 @@
+// Flags every cpgmatch executable shares:
+//   --version                          project version and git revision
+//   --dds-profile local|cluster|FILE   the Fast DDS profile (deploy/fastdds/): local = Fast DDS's defaults
+//                                      (multicast discovery), cluster = client of discovery servers, UDP only,
+//                                      FILE = any Fast DDS XML profiles file. Without the flag Fast DDS
+//                                      decides as usual ($FASTRTPS_DEFAULT_PROFILES_FILE, else defaults).
+//   --discovery-server IP:PORT[;...]   the discovery servers (same as $ROS_DISCOVERY_SERVER)
+//   --keystore DIR, --enclave NAME     DDS-Security: a keystore made by deploy/make-study-pki.sh (default
+//                                      $CPGMATCH_KEYSTORE; none: no security) and the identity in it
+//                                      (default per program: optimizer, worker, operator, viewer)
+#pragma once
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace cpgmatch::runtime {
+
+struct DdsFlags {
+  std::string profile;            // empty: Fast DDS's own choice
+  std::string discovery_servers;  // empty: $ROS_DISCOVERY_SERVER
+  std::string keystore;           // empty: $CPGMATCH_KEYSTORE, else no security
+  std::string enclave;            // empty: the program's default enclave
+  std::string default_enclave;
+};
+
+void add_version_flag(CLI::App& app, const std::string& program);
+void add_dds_flags(CLI::App& app, DdsFlags& flags, const std::string& default_enclave);
+
+// The XML file a --dds-profile value names: local and cluster are the shipped profiles, anything else
+// a path. InputError naming --dds-profile when it is neither.
+std::string profiles_file_for(const std::string& profile);
+
+// Exports the selection for this process and its children (see cpgmatch/dds/profile.hpp).
+void apply_dds_flags(const DdsFlags& flags);
+
+}  // namespace cpgmatch::runtime

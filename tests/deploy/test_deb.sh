@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The .deb that CPack builds: Debian dependencies computed from what the executables link (dpkg-shlibdeps)
+# plus fastdds-tools, files under /usr where Debian expects them, units starting /usr/bin executables, and
+# apt able to resolve it on this machine (simulated: nothing is installed). The unpacked tree runs a
+# rollout with the configs it carries.
+#   test_deb.sh BUILD_DIR
+set -euo pipefail
+BUILD=${1:?usage: test_deb.sh BUILD_DIR}
+WORK=$(mktemp -d "${TMPDIR:-/tmp}/cpgmatch-deb.XXXXXX")
+trap 'rm -rf "$WORK"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+command -v dpkg-shlibdeps >/dev/null || { echo "SKIP: dpkg-shlibdeps (dpkg-dev) is not installed"; exit 77; }
+
+cpack --config "$BUILD/CPackConfig.cmake" -G DEB -B "$WORK" >"$WORK/cpack.log" 2>&1 || { cat "$WORK/cpack.log"; fail "cpack"; }
+deb=$(ls "$WORK"/cpgmatch_*.deb) || fail "no .deb in $WORK"
+depends=$(dpkg-deb -f "$deb" Depends)
+for needed in fastdds-tools libfastrtps2.9 libode8 libsqlite3-0 libyaml-cpp0.7 libnlopt0 libgsl27; do
+  [[ $depends == *"$needed"* ]] || fail "Depends lacks $needed: $depends"
+done
+dpkg-deb -x "$deb" "$WORK/root"
+for f in usr/bin/cpgmatch usr/bin/cpgmatch-optimizer usr/bin/cpgmatch-sim-worker usr/share/cpgmatch/configs/model/morti.yaml \
+         usr/share/cpgmatch/fastdds/cluster.xml usr/lib/systemd/system/cpgmatch-optimizer.service; do
+  [[ -e $WORK/root/$f ]] || fail "not in the package: /$f"
+done
+grep -q '^ExecStart=/usr/bin/cpgmatch-optimizer ' "$WORK/root/usr/lib/systemd/system/cpgmatch-optimizer.service" ||
+  fail "the packaged optimizer unit does not start /usr/bin/cpgmatch-optimizer"
+apt-get install -s "$deb" >"$WORK/apt.log" 2>&1 || { cat "$WORK/apt.log"; fail "apt cannot resolve the package's dependencies"; }
+cd "$WORK"
+unset CPGMATCH_CONFIG_DIR
+"$WORK/root/usr/bin/cpgmatch" rollout --entrain 0.5 --eval 0.5 --json | grep -q '"cost"' || fail "rollout from the unpacked package"
+echo "PASS deb: $(basename "$deb"), Depends: $depends"
