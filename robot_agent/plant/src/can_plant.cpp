@@ -315,15 +315,19 @@ void CanPlant::advance(double /*dt_s: always the control period; the rollout ask
   for (int j = 0; j < kNumJoints; ++j) {
     if (tick_start - motor_heard_ns_[j] > period_ns_ + period_ns_ / 2) ++missing_replies_;
   }
+  bool overran = false;
   try {
     send_commands();
+    // An overrun: the period's work (the controller and cost between ticks, sending) already ran past
+    // the deadline. Waiting for replies up to the deadline is not work.
+    overran = monotonic_ns() > to_ns(timer_.deadline());
     receive_until(to_ns(timer_.deadline()));
   } catch (const can::CanError& e) {
     trip("CAN bus failed: %s", e.what());
     return;
   }
-  bool overran = false;
-  const std::int64_t lateness = timer_.wait(overran);
+  bool deadline_passed = false;
+  const std::int64_t lateness = timer_.wait(deadline_passed);
   jitter_.record(lateness);
   if (overran) {
     jitter_.add_overrun();

@@ -87,10 +87,10 @@ double JitterStats::percentile_us(double p) const {
 
 void PeriodicTimer::start() { deadline_ = from_ns(monotonic_ns() + period_ns_); }
 
-std::int64_t PeriodicTimer::wait(bool& overran) {
+std::int64_t PeriodicTimer::wait(bool& passed) {
   const std::int64_t deadline = to_ns(deadline_);
-  overran = monotonic_ns() > deadline;
-  if (!overran) {
+  passed = monotonic_ns() > deadline;
+  if (!passed) {
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline_, nullptr) == EINTR) {
     }
   }

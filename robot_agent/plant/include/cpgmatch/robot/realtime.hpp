@@ -48,10 +48,10 @@ class PeriodicTimer {
   explicit PeriodicTimer(std::int64_t period_ns) : period_ns_(period_ns) {}
   void start();                           // the first deadline is one period from now
   const struct timespec& deadline() const { return deadline_; }
-  // Sleeps until the current deadline and moves it one period on. Returns the wake-up lateness (ns); a
-  // negative `overrun_ns` would be nonsense, so an overrun (the deadline had already passed on entry) is
-  // reported through `overran` and the loop continues at once without sleeping.
-  std::int64_t wait(bool& overran);
+  // Sleeps until the current deadline and moves it one period on. Returns the wake-up lateness (ns).
+  // When the deadline had already passed on entry, `passed` is set and it returns at once: the loop
+  // catches up instead of skipping periods (every period is one control step of the rollout).
+  std::int64_t wait(bool& passed);
   std::int64_t period_ns() const { return period_ns_; }
 
  private:
