@@ -2,6 +2,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -16,10 +17,13 @@ std::string shipped_text() {
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
-// Loads the shipped file with one regex replacement applied; returns the error message ("" if none).
-std::string error_after(const std::string& pattern, const std::string& replacement) {
-  const std::string text = std::regex_replace(shipped_text(), std::regex(pattern), replacement,
-                                              std::regex_constants::format_first_only);
+// Loads the shipped file with regex replacements applied (each to its first match); returns the error
+// message ("" if none).
+std::string error_after_all(const std::vector<std::pair<std::string, std::string>>& edits) {
+  std::string text = shipped_text();
+  for (const auto& [pattern, replacement] : edits) {
+    text = std::regex_replace(text, std::regex(pattern), replacement, std::regex_constants::format_first_only);
+  }
   const auto path = std::filesystem::temp_directory_path() / ("robot-" + std::to_string(::getpid()) + ".yaml");
   std::ofstream(path) << text;
   std::string message;
@@ -30,6 +34,10 @@ std::string error_after(const std::string& pattern, const std::string& replaceme
   }
   std::filesystem::remove(path);
   return message;
+}
+
+std::string error_after(const std::string& pattern, const std::string& replacement) {
+  return error_after_all({{pattern, replacement}});
 }
 
 TEST(RobotConfig, ShippedMortiLoads) {
@@ -68,6 +76,14 @@ TEST(RobotConfig, EnvelopeRefusesWithTheReason) {
   ASSERT_TRUE(why.has_value());
   EXPECT_NE(why->find("hip_amplitude = 0.69 is outside the robot's safe envelope [0.05, 0.65]"), std::string::npos) << *why;
   EXPECT_NE(why->find("morti.yaml:"), std::string::npos) << *why;
+}
+
+TEST(RobotConfig, OnlyEmulatorDescriptionsMayHaveASlowWatchdog) {
+  EXPECT_NE(error_after("feedback_timeout_s: 0.010", "feedback_timeout_s: 0.5").find("must be in [0.002, 0.015]"),
+            std::string::npos);
+  EXPECT_EQ(error_after_all({{"feedback_timeout_s: 0.010", "feedback_timeout_s: 0.5"},
+                             {"\nprotocol: mit", "\nemulator_only: true\nprotocol: mit"}}),
+            "");
 }
 
 TEST(RobotConfig, BadFilesNameFileLineAndField) {

@@ -122,6 +122,13 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
     trip("trunk sensor (node %u) is silent", config_.trunk_node_id);
     return fault();
   }
+  // Answers to repeated enables may still be on their way; left in the queue they would be taken for
+  // the first period's replies and every later period would read the one before. Drain until the bus
+  // has been quiet for 5 ms (at most 50 ms: streaming sensors never go quiet, and need not).
+  for (const std::int64_t give_up = monotonic_ns() + 50'000'000; monotonic_ns() < give_up;) {
+    if (!bus_.receive(stale, std::chrono::milliseconds(5))) break;
+    handle(stale, monotonic_ns());
+  }
 
   // Ramp to the standing pose (all joint targets 0) at the configured speed, from where the joints are.
   double distance = 0.0;
@@ -148,6 +155,7 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
   // The rollout's clock and statistics start now.
   time_s_ = 0.0;
   jitter_.reset();
+  feedback_latency_.reset();
   ticks_ = 0;
   missing_replies_ = 0;
   unexpected_frames_ = 0;
@@ -176,10 +184,14 @@ void CanPlant::command(const PerLeg<JointCommand>& commands) {
     auto bounded = [&](double target, const JointConfig& j, int index) {
       if (!std::isfinite(target)) target = position_[index];  // a NaN target holds the joint where it is
       target = std::clamp(target, j.position_min_rad, j.position_max_rad);
-      // kp x (target - measured) must stay within the torque limit.
+      // The driver's torque kp (target - p) - kd v (v_des = 0) must stay within the torque limit: the
+      // target may lead the measured angle by at most (limit +- kd v) / kp. The damping term is part of
+      // the bound, so a target far ahead gives exactly the saturated torque a torque-limited PD gives.
       if (j.kp_nm_per_rad > 0.0) {
-        const double reach = j.torque_max_nm / j.kp_nm_per_rad;
-        target = std::clamp(target, position_[index] - reach, position_[index] + reach);
+        const double damping = j.kd_nm_s_per_rad * velocity_[index];
+        const double low = position_[index] + (-j.torque_max_nm + damping) / j.kp_nm_per_rad;
+        const double high = position_[index] + (j.torque_max_nm + damping) / j.kp_nm_per_rad;
+        target = std::clamp(target, std::min(low, high), std::max(low, high));
       }
       return target;
     };
@@ -255,10 +267,15 @@ bool CanPlant::handle(const can::CanFrame& frame, std::int64_t now_ns) {
   return false;
 }
 
-bool CanPlant::everything_heard_since(std::int64_t since_ns) const {
+bool CanPlant::all_motors_heard_since(std::int64_t since_ns) const {
   for (const auto t : motor_heard_ns_) {
     if (t < since_ns) return false;
   }
+  return true;
+}
+
+bool CanPlant::everything_heard_since(std::int64_t since_ns) const {
+  if (!all_motors_heard_since(since_ns)) return false;
   for (const auto t : foot_heard_ns_) {
     if (t < since_ns) return false;
   }
@@ -267,12 +284,17 @@ bool CanPlant::everything_heard_since(std::int64_t since_ns) const {
 
 void CanPlant::receive_until(std::int64_t deadline_ns) {
   const std::int64_t sent_at = monotonic_ns();
+  bool motors_answered = false;
   can::CanFrame frame;
   while (true) {
     const std::int64_t now = monotonic_ns();
+    if (!motors_answered && all_motors_heard_since(sent_at)) {
+      feedback_latency_.record(now - sent_at);  // command to the last motor's reply
+      motors_answered = true;
+    }
     if (now >= deadline_ns) return;
     // Every motor answered this period's command and every sensor spoke: nothing more to wait for.
-    if (everything_heard_since(sent_at)) return;
+    if (motors_answered && everything_heard_since(sent_at)) return;
     if (!bus_.receive(frame, std::chrono::nanoseconds(deadline_ns - now))) continue;
     handle(frame, monotonic_ns());
   }
@@ -321,7 +343,9 @@ void CanPlant::advance(double /*dt_s: always the control period; the rollout ask
     // An overrun: the period's work (the controller and cost between ticks, sending) already ran past
     // the deadline. Waiting for replies up to the deadline is not work.
     overran = monotonic_ns() > to_ns(timer_.deadline());
-    receive_until(to_ns(timer_.deadline()));
+    std::int64_t wait_until = to_ns(timer_.deadline());
+    if (options_.wait_for_every_reply) wait_until = std::max(wait_until, monotonic_ns() + timeout_ns_);
+    receive_until(wait_until);
   } catch (const can::CanError& e) {
     trip("CAN bus failed: %s", e.what());
     return;
@@ -376,6 +400,9 @@ LoopStats CanPlant::loop_stats() const {
   s.jitter_p99_us = jitter_.percentile_us(0.99);
   s.jitter_max_us = jitter_.max_us();
   s.overruns = jitter_.overruns();
+  s.feedback_latency_p50_us = feedback_latency_.percentile_us(0.50);
+  s.feedback_latency_p99_us = feedback_latency_.percentile_us(0.99);
+  s.feedback_latency_max_us = feedback_latency_.max_us();
   s.missing_replies = missing_replies_;
   s.unexpected_frames = unexpected_frames_;
   return s;

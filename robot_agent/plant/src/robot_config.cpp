@@ -59,11 +59,11 @@ JointConfig load_joint(const YamlReader& j, const std::string& name, const MitRa
   return c;
 }
 
-void load_safety(const YamlReader& s, SafetyConfig& c) {
+void load_safety(const YamlReader& s, SafetyConfig& c, bool emulator_only) {
   s.reject_unknown_keys({"feedback_timeout_s", "max_consecutive_overruns", "safe_damping_nm_s_per_rad",
                          "stand_ramp_speed_rad_s", "stand_tolerance_rad", "envelope"});
   // The watchdog must make the motors safe within 20 ms of the last feedback: detection plus one period.
-  c.feedback_timeout_s = s.get_double_in("feedback_timeout_s", c.feedback_timeout_s, 0.002, 0.015);
+  c.feedback_timeout_s = s.get_double_in("feedback_timeout_s", c.feedback_timeout_s, 0.002, emulator_only ? 1.0 : 0.015);
   c.max_consecutive_overruns = s.get_int_in("max_consecutive_overruns", c.max_consecutive_overruns, 1, 100);
   c.safe_damping_nm_s_per_rad = s.get_double_in("safe_damping_nm_s_per_rad", c.safe_damping_nm_s_per_rad, 0.0, 10.0);
   c.stand_ramp_speed_rad_s = s.get_double_in("stand_ramp_speed_rad_s", c.stand_ramp_speed_rad_s, 0.01, 5.0);
@@ -112,10 +112,11 @@ std::optional<std::string> RobotConfig::envelope_violation(const CpgParameters& 
 
 RobotConfig load_robot_config(const std::string& path) {
   const YamlReader r = YamlReader::from_file(path);
-  r.reject_unknown_keys({"protocol", "bitrate", "host_id", "control_rate_hz", "motor_ranges", "joints", "feet",
+  r.reject_unknown_keys({"emulator_only", "protocol", "bitrate", "host_id", "control_rate_hz", "motor_ranges", "joints", "feet",
                          "trunk_sensor", "safety"});
   RobotConfig c;
   c.source = path;
+  c.emulator_only = r.get_bool("emulator_only", false);
   c.protocol = r.get_string("protocol", c.protocol);
   if (c.protocol != "mit") r.fail("protocol", fmt::format("'{}' is not supported (supported: mit)", c.protocol));
   (void)r.get_int_in("bitrate", 1000000, 10000, 1000000);  // set on the interface (ip link), documented here
@@ -177,7 +178,7 @@ RobotConfig load_robot_config(const std::string& path) {
   claim(trunk, "node_id", c.trunk_node_id + 1, "trunk sensor (speed frame)");
   if (node_owner.count(c.host_id)) r.fail("host_id", fmt::format("{} is also a node id ({})", c.host_id, node_owner[c.host_id]));
 
-  if (r.has("safety")) load_safety(r.child("safety"), c.safety);
+  if (r.has("safety")) load_safety(r.child("safety"), c.safety, c.emulator_only);
   return c;
 }
 

@@ -40,6 +40,10 @@ struct LoopStats {
   double jitter_p99_us = 0.0;
   double jitter_max_us = 0.0;
   std::uint64_t overruns = 0;
+  // Command to feedback: from sending a period's commands until every motor and sensor was heard.
+  double feedback_latency_p50_us = 0.0;
+  double feedback_latency_p99_us = 0.0;
+  double feedback_latency_max_us = 0.0;
   std::uint64_t missing_replies = 0;    // motor replies that did not arrive within their period
   std::uint64_t unexpected_frames = 0;  // frames no motor or sensor claims, or with the wrong length
 };
@@ -47,6 +51,9 @@ struct LoopStats {
 struct CanPlantOptions {
   double enable_timeout_s = 0.2;     // how long prepare() waits for every node to answer
   bool watchdog_thread = true;       // a second thread that makes the motors safe if the loop stalls
+  // Lockstep with an emulator: every period waits for all replies (up to the feedback timeout) even
+  // past its deadline, so a slow emulator delays the rollout instead of changing it. Never on a robot.
+  bool wait_for_every_reply = false;
 };
 
 class CanPlant final : public Plant {
@@ -88,6 +95,7 @@ class CanPlant final : public Plant {
   void check_watchdog(std::int64_t now_ns);
   void trip(const char* format, ...) __attribute__((format(printf, 2, 3)));
   bool everything_heard_since(std::int64_t since_ns) const;
+  bool all_motors_heard_since(std::int64_t since_ns) const;
   void watch_loop();
 
   RobotConfig config_;
@@ -113,6 +121,7 @@ class CanPlant final : public Plant {
 
   PeriodicTimer timer_;
   JitterStats jitter_;
+  JitterStats feedback_latency_;  // the same microsecond histogram, for command-to-feedback times
   int overruns_in_row_ = 0;
   std::uint64_t missing_replies_ = 0;
   std::uint64_t unexpected_frames_ = 0;

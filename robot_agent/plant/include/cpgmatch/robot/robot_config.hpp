@@ -58,6 +58,9 @@ struct SafetyConfig {
 struct RobotConfig {
   std::string source;                     // the file it came from
   std::string protocol = "mit";
+  // A description for emulators only (tests, benchmarks on a shared machine): its watchdog timeout may
+  // exceed what keeps the 20 ms safety target, and the agent refuses to drive a socketcan: bus with it.
+  bool emulator_only = false;
   std::uint32_t host_id = 0;              // CAN id the motors reply on
   MitRanges ranges;                       // the firmware's ranges (motor-shaft units)
   double control_rate_hz = 500.0;
