@@ -10,7 +10,9 @@
 // to the safe state, then off), its report says so, and the agent leaves the domain.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <chrono>
 #include <condition_variable>
 #include <csignal>
@@ -74,6 +76,10 @@ msg::RolloutReport to_report(const HardwareRollout& h) {
     r.fall_time_s(-1.0);
   }
   r.worker_kind(msg::WORKER_HARDWARE);
+  r.loop_jitter_p50_us(h.loop.jitter_p50_us);
+  r.loop_jitter_p99_us(h.loop.jitter_p99_us);
+  r.loop_jitter_max_us(h.loop.jitter_max_us);
+  r.loop_overruns(static_cast<std::uint32_t>(std::min<std::uint64_t>(h.loop.overruns, UINT32_MAX)));
   return r;
 }
 
@@ -129,7 +135,7 @@ int run_once(const Options& o, HardwareRunner& runner, const RolloutSettings& se
   if (!runner.realtime_warning().empty()) spdlog::warn("{}", runner.realtime_warning());
   if (o.json) {
     nlohmann::json j = dds::to_json(to_report(h));
-    j["loop"] = loop_json(h);
+    j["loop"] = loop_json(h);  // the report's loop fields and more
     j["sim_time_s"] = h.result.sim_time_s;
     std::cout << j.dump() << std::endl;
   } else if (h.ok) {

@@ -9,6 +9,7 @@
 #include "cpgmatch/robot/can_plant.hpp"
 #include "cpgmatch/robot/realtime.hpp"
 #include "cpgmatch/robot/robot_device.hpp"
+#include "cpgmatch/robot/sensor_protocol.hpp"
 #include "cpgmatch/rollout.hpp"
 
 namespace cpgmatch::robot {
@@ -281,6 +282,51 @@ TEST(CanPlant, TheWatchThreadDoesNotCallTheRolloutsEndAStall) {
   }
   std::this_thread::sleep_for(40ms);
   EXPECT_FALSE(plant.tripped()) << plant.fault().value_or("");
+}
+
+TEST(CanPlant, ForeignAndMalformedFramesAreCountedNotUsed) {
+  const RobotConfig config = tolerant_morti();
+  ScriptedRobot robot(config, "virtual:plant-foreign");
+  auto bus = can::open_can_bus("virtual:plant-foreign");
+  auto intruder = can::open_can_bus("virtual:plant-foreign");
+  CanPlant plant(config, *bus, kNoStallWatch);
+  ASSERT_EQ(plant.prepare(10.0), std::nullopt);
+  plant.command(pose(0.0, 0.0));
+  plant.advance(plant.time_step_s());
+  // A 5-byte "reply" on the host id, a reply from a node no joint has, a foot frame of the wrong length.
+  can::CanFrame short_reply = mit_encode_reply(config.host_id, {1, 3.0, 0.0, 0.0}, config.ranges);
+  short_reply.length = 5;
+  intruder->send(short_reply);
+  intruder->send(mit_encode_reply(config.host_id, {42, 3.0, 0.0, 0.0}, config.ranges));
+  can::CanFrame bad_foot = encode_foot(config.foot_node_ids[0], {99.0, 0, false});
+  bad_foot.length = 2;
+  intruder->send(bad_foot);
+  for (int i = 0; i < 5; ++i) {
+    plant.command(pose(0.0, 0.0));
+    plant.advance(plant.time_step_s());
+  }
+  EXPECT_FALSE(plant.tripped()) << plant.fault().value_or("");
+  EXPECT_EQ(plant.loop_stats().unexpected_frames, 3u);
+  EXPECT_NEAR(plant.state().legs[kFrontLeft].hip_angle_rad, 0.0, 1e-3) << "the bad frames moved nothing";
+  EXPECT_NEAR(plant.state().legs[kFrontLeft].foot_normal_force_n, 10.0, 0.01);
+}
+
+TEST(CanPlant, BusOffErrorFrameTrips) {
+  const RobotConfig config = tolerant_morti();
+  ScriptedRobot robot(config, "virtual:plant-busoff");
+  auto bus = can::open_can_bus("virtual:plant-busoff");
+  auto controller = can::open_can_bus("virtual:plant-busoff");
+  CanPlant plant(config, *bus, kNoStallWatch);
+  ASSERT_EQ(plant.prepare(10.0), std::nullopt);
+  can::CanFrame bus_off;
+  bus_off.error = true;
+  bus_off.id = 0x40;  // CAN_ERR_BUSOFF
+  bus_off.length = 8;
+  controller->send(bus_off);
+  plant.command(pose(0.0, 0.0));
+  plant.advance(plant.time_step_s());
+  ASSERT_TRUE(plant.tripped());
+  EXPECT_EQ(*plant.fault(), "CAN controller is bus-off");
 }
 
 TEST(JitterStats, PercentilesAndMax) {

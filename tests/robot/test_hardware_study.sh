@@ -17,6 +17,8 @@ out=$(cli study submit --config "$WORK/s.yaml" --wait --json --quiet --timeout 9
 n=$(sql "$WORK/s.db" "select count(*) from trials where json_extract(report_json,'$.worker_kind')='hardware' and json_extract(report_json,'$.ok') and worker_id='morti'")
 [[ $n == 3 ]] || fail "expected 3 ok hardware reports from morti, got $n"
 grep -q "loop .* ticks, jitter p50" "$WORK/agent.log" || fail "the agent did not log its loop statistics"
+n=$(sql "$WORK/s.db" "select count(*) from trials where json_extract(report_json,'$.loop.jitter_max_us') > 0")
+[[ $n == 3 ]] || fail "expected the loop jitter in all 3 stored reports, got $n"
 kill -TERM "$AGENT_PID"
 wait "$AGENT_PID" || fail "agent exited $? after SIGTERM"
 echo "PASS hardware study: $out"
