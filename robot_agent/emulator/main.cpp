@@ -124,6 +124,8 @@ class Emulator {
   }
 
   int run_realtime() {
+    // Like the robot's own drivers, the twin must keep time: ask for the same real-time treatment.
+    if (const RealtimeSetup rt = enter_realtime(70); !rt.warning.empty()) std::fprintf(stderr, "emulator: %s\n", rt.warning.c_str());
     const double dt = plant_->time_step_s();
     PeriodicTimer timer(std::llround(dt * 1e9));
     timer.start();

@@ -18,9 +18,12 @@ half=$(python3 -c "print($SECONDS_RUN / 2)")
 /usr/bin/time -f '%U %S %e' -o /tmp/robot_loop_time.$$ "$BIN/cpgmatch-robot-agent" --can "udp:127.0.0.1:$PORT" \
   --robot "$ROBOT" --run-once --params "$ROOT/configs/params/matched-trot.yaml" --entrain "$half" --eval "$half" --json \
   >/tmp/robot_loop_out.$$ 2>/tmp/robot_loop_err.$$ || true
+if [[ ! -s /tmp/robot_loop_out.$$ ]]; then
+  echo "the agent printed no report:"; cat /tmp/robot_loop_err.$$ /tmp/robot_loop_time.$$; exit 1
+fi
 ticks_per_s=$(getconf CLK_TCK)
-read -r _ _ _ _ _ _ _ _ _ _ _ _ _ utime stime _ < <(cut -d')' -f2 /proc/$EMU/stat)
-python3 - "$(cat /tmp/robot_loop_out.$$)" "$(cat /tmp/robot_loop_time.$$)" "$utime" "$stime" "$ticks_per_s" <<'PY'
+read -r _ _ _ _ _ _ _ _ _ _ _ utime stime _ < <(cut -d')' -f2 /proc/$EMU/stat)
+python3 - "$(cat /tmp/robot_loop_out.$$)" "$(grep -E '^[0-9.]+ [0-9.]+ [0-9.:]+$' /tmp/robot_loop_time.$$ | tail -n 1)" "$utime" "$stime" "$ticks_per_s" <<'PY'
 import json, sys
 report = json.loads(sys.argv[1])
 user, system, wall = map(float, sys.argv[2].split())

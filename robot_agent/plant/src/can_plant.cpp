@@ -138,6 +138,7 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
     distance = std::max(distance, std::abs(start[j]));
   }
   timer_.start();
+  expect_since_ns_ = 0;
   if (distance > config_.safety.stand_tolerance_rad) {
     const int steps = static_cast<int>(std::ceil(distance / config_.safety.stand_ramp_speed_rad_s / period_s_));
     for (int step = 1; step <= steps && !tripped(); ++step) {
@@ -161,6 +162,7 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
   unexpected_frames_ = 0;
   overruns_in_row_ = 0;
   rollout_ticks_ = static_cast<std::uint64_t>(std::llround(rollout_s / period_s_));
+  expect_since_ns_ = 0;
   timer_.start();
   return std::nullopt;
 }
@@ -301,10 +303,11 @@ void CanPlant::receive_until(std::int64_t deadline_ns) {
 }
 
 void CanPlant::check_watchdog(std::int64_t now_ns) {
+  auto silence = [&](std::int64_t heard_ns) { return now_ns - std::max(heard_ns, expect_since_ns_); };
   for (int j = 0; j < kNumJoints; ++j) {
     const JointConfig& joint = *joints_[j];
-    if (now_ns - motor_heard_ns_[j] > timeout_ns_) {
-      trip("motor %s (node %u) silent for %.1f ms", joint_label(joint), joint.node_id, (now_ns - motor_heard_ns_[j]) * 1e-6);
+    if (silence(motor_heard_ns_[j]) > timeout_ns_) {
+      trip("motor %s (node %u) silent for %.1f ms", joint_label(joint), joint.node_id, silence(motor_heard_ns_[j]) * 1e-6);
       return;
     }
     if (std::abs(velocity_[j]) > joint.velocity_max_rad_s) {
@@ -318,13 +321,13 @@ void CanPlant::check_watchdog(std::int64_t now_ns) {
     }
   }
   for (int leg = 0; leg < kNumLegs; ++leg) {
-    if (now_ns - foot_heard_ns_[leg] > timeout_ns_) {
-      trip("%s foot sensor silent for %.1f ms", kLegNames[leg].data(), (now_ns - foot_heard_ns_[leg]) * 1e-6);
+    if (silence(foot_heard_ns_[leg]) > timeout_ns_) {
+      trip("%s foot sensor silent for %.1f ms", kLegNames[leg].data(), silence(foot_heard_ns_[leg]) * 1e-6);
       return;
     }
   }
-  if (now_ns - trunk_heard_ns_ > timeout_ns_) {
-    trip("trunk sensor silent for %.1f ms", (now_ns - trunk_heard_ns_) * 1e-6);
+  if (silence(trunk_heard_ns_) > timeout_ns_) {
+    trip("trunk sensor silent for %.1f ms", silence(trunk_heard_ns_) * 1e-6);
   }
 }
 
@@ -334,6 +337,7 @@ void CanPlant::advance(double /*dt_s: always the control period; the rollout ask
     return;
   }
   const std::int64_t tick_start = monotonic_ns();
+  if (expect_since_ns_ == 0) expect_since_ns_ = tick_start;
   for (int j = 0; j < kNumJoints; ++j) {
     if (tick_start - motor_heard_ns_[j] > period_ns_ + period_ns_ / 2) ++missing_replies_;
   }

@@ -118,6 +118,9 @@ class CanPlant final : public Plant {
   TrunkState trunk_{};
   std::int64_t trunk_heard_ns_ = 0;
   double time_s_ = 0.0;
+  // Silence is counted from when replies were first expected: the first period's commands (motors
+  // answer only when commanded, so the time spent preparing is not silence).
+  std::int64_t expect_since_ns_ = 0;
 
   PeriodicTimer timer_;
   JitterStats jitter_;
