@@ -41,13 +41,21 @@ struct Options {
   bool lockstep = false;
   DeviceImperfections imperfections;
   double latency_ms = 0.0;
+  double extra_friction_nm = 0.0;
 };
+
+// Dry friction added to every hip gearbox and knee bearing: a robot that is stiffer than its model.
+sim::MortiModel with_extra_friction(sim::MortiModel model, double extra_nm) {
+  model.hip_motor.coulomb_friction_nm += extra_nm;
+  model.knee_joint_friction_nm += extra_nm;
+  return model;
+}
 
 class Emulator {
  public:
   explicit Emulator(const Options& o)
       : options_(o),
-        model_(sim::load_morti_model(o.model_path)),
+        model_(with_extra_friction(sim::load_morti_model(o.model_path), o.extra_friction_nm)),
         terrain_(sim::TerrainSpec::parse(o.terrain)),
         config_(load_robot_config(o.robot_path)),
         bus_(can::open_can_bus(o.can_uri, can::BusRole::kDevice)),
@@ -180,6 +188,9 @@ int main(int argc, char** argv) {
   app.add_option("--contact-dropout", o.imperfections.contact_dropout, "probability a foot frame reads 0 N")->check(CLI::Range(0.0, 1.0));
   app.add_option("--reply-dropout", o.imperfections.reply_dropout, "probability a motor reply is lost")->check(CLI::Range(0.0, 1.0));
   app.add_option("--latency-ms", o.latency_ms, "delay of every frame the robot sends, ms")->check(CLI::Range(0.0, 100.0));
+  app.add_option("--backlash", o.imperfections.backlash_rad, "gear play between encoder and joint, rad (total)")->check(CLI::Range(0.0, 0.5));
+  app.add_option("--extra-friction", o.extra_friction_nm, "dry friction added to every hip gearbox and knee bearing, N m")
+      ->check(CLI::Range(0.0, 5.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -129,5 +129,24 @@ TEST(RobotDevice, ImperfectionsDropAndDelayFrames) {
   EXPECT_TRUE(late.host->receive(f, 100ms));
 }
 
+TEST(RobotDevice, BacklashIsADeadBandOnTheReportedAngle) {
+  DeviceImperfections play;
+  play.backlash_rad = 0.02;
+  Rig rig("device-backlash", play);
+  auto reported = [&](double joint) {
+    PlantState s = standing(0.0);
+    s.legs[kFrontLeft].hip_angle_rad = joint;
+    rig.device.update(s, 0.001);
+    rig.device.reply(joint_index(kFrontLeft, true));
+    can::CanFrame f;
+    EXPECT_TRUE(rig.host->receive(f, 100ms));
+    return rig.config.hips[kFrontLeft].to_joint_position(mit_decode_reply(f, 0, rig.config.ranges)->position_rad);
+  };
+  EXPECT_NEAR(reported(0.0), 0.0, 1e-3);
+  EXPECT_NEAR(reported(0.008), 0.0, 1e-3) << "inside the play: the encoder does not move";
+  EXPECT_NEAR(reported(0.05), 0.04, 1e-3) << "the play taken up: the encoder trails by half of it";
+  EXPECT_NEAR(reported(0.045), 0.04, 1e-3) << "reversing: the play opens again";
+}
+
 }  // namespace
 }  // namespace cpgmatch::robot

@@ -1,5 +1,6 @@
 #include "cpgmatch/robot/robot_device.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "cpgmatch/robot/sensor_protocol.hpp"
@@ -86,6 +87,8 @@ void RobotDevice::update(const PlantState& state, double dt_s) {
       const int j = leg * 2 + k;
       velocity_[j] = have_state_ && dt_s > 0.0 ? (positions[k] - position_[j]) / dt_s : 0.0;
       position_[j] = positions[k];
+      const double play = 0.5 * imperfections_.backlash_rad;
+      encoder_[j] = have_state_ ? std::clamp(encoder_[j], positions[k] - play, positions[k] + play) : positions[k];
       torque_[j] = torques[k];
     }
   }
@@ -98,7 +101,7 @@ void RobotDevice::reply(int j) {
   const JointConfig& joint = *joints_[j];
   MotorFeedback fb;
   fb.node_id = joint.node_id;
-  fb.position_rad = joint.to_motor_position(position_[j] + gaussian(imperfections_.position_noise_rad)) - zero_[j];
+  fb.position_rad = joint.to_motor_position(encoder_[j] + gaussian(imperfections_.position_noise_rad)) - zero_[j];
   fb.velocity_rad_s = joint.to_motor_velocity(velocity_[j]);
   fb.torque_nm = joint.to_motor_torque(torque_[j]);
   emit(mit_encode_reply(config_.host_id, fb, config_.ranges));

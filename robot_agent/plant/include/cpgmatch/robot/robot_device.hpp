@@ -24,6 +24,9 @@ struct DeviceImperfections {
   double contact_dropout = 0.0;      // probability that a foot frame reports 0 N
   double reply_dropout = 0.0;        // probability that a motor reply is lost
   double latency_s = 0.0;            // every frame leaves this much later (flush() sends what is due)
+  // Gear play between the motor's encoder and the joint: the reported angle follows the joint only once
+  // the play is taken up (a dead band of this total width, joint units).
+  double backlash_rad = 0.0;
   std::uint64_t seed = 1;
 };
 
@@ -73,6 +76,7 @@ class RobotDevice {
   PerLeg<JointCommand> commands_{};
   PlantState state_{};
   std::array<double, kNumJoints> position_{}, velocity_{}, torque_{};
+  std::array<double, kNumJoints> encoder_{};  // the motor side of the gear play
   bool have_state_ = false;
   std::uint8_t sequence_ = 0;
   std::mt19937_64 rng_;
