@@ -54,13 +54,17 @@ void CanPlant::trip(const char* format, ...) {
   bool expected = false;
   // The first trip wins and writes the reason; later ones (the other thread, follow-up faults) only
   // re-send the safe state.
-  if (tripped_.compare_exchange_strong(expected, true, std::memory_order_acq_rel)) {
+  const bool first = tripped_.compare_exchange_strong(expected, true, std::memory_order_acq_rel);
+  if (first) {
     va_list args;
     va_start(args, format);
     std::vsnprintf(fault_.data(), fault_.size(), format, args);
     va_end(args);
+    silent_since_at_trip_ns_.store(*std::min_element(motor_heard_ns_.begin(), motor_heard_ns_.end()),
+                                   std::memory_order_release);
   }
   send_safe_state();
+  if (first) safe_sent_ns_.store(monotonic_ns(), std::memory_order_release);
 }
 
 void CanPlant::emergency_stop(const char* reason) { trip("emergency stop: %s", reason); }
@@ -88,6 +92,8 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
   rollout_ticks_ = std::numeric_limits<std::uint64_t>::max();  // the stand-up ramp is not the rollout
   tripped_ = false;
   fault_seen_ = false;
+  safe_sent_ns_ = 0;
+  silent_since_at_trip_ns_ = 0;
   fault_.fill(0);
   heartbeat_ns_ = 0;
   std::fill(motor_heard_ns_.begin(), motor_heard_ns_.end(), 0);

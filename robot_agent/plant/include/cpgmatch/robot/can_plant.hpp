@@ -84,6 +84,11 @@ class CanPlant final : public Plant {
   // Why the watchdog tripped, or nullopt.
   std::optional<std::string> fault() const;
   LoopStats loop_stats() const;
+  // When the safe state first went out after a trip, and the last reply of the motor that had been
+  // silent longest at that moment (monotonic ns; 0 = never): after a silence the watchdog's reaction
+  // time is the difference.
+  std::int64_t safe_state_sent_ns() const { return safe_sent_ns_.load(std::memory_order_acquire); }
+  std::int64_t silent_since_ns() const { return silent_since_at_trip_ns_.load(std::memory_order_acquire); }
   // The command last sent to a joint, motor-shaft units (tests, diagnostics).
   const MotorCommand& last_sent(int joint) const { return sent_[joint]; }
 
@@ -132,6 +137,8 @@ class CanPlant final : public Plant {
   std::uint64_t rollout_ticks_ = 0;  // after this many the rollout is over: safe state, no stall watch
 
   std::atomic<bool> tripped_{false};
+  std::atomic<std::int64_t> safe_sent_ns_{0};
+  std::atomic<std::int64_t> silent_since_at_trip_ns_{0};
   mutable std::atomic<bool> fault_seen_{false};
   std::array<char, 256> fault_{};
   // The loop's heartbeat for the watch thread (monotonic ns of the last tick; 0 = not running).
