@@ -20,7 +20,7 @@ nlohmann::json params_json(const std::vector<msg::ParameterValue>& values) {
 }  // namespace
 
 nlohmann::json to_json(const msg::RolloutReport& r) {
-  return {{"study_id", r.study_id()},
+  nlohmann::json j = {{"study_id", r.study_id()},
           {"trial_id", r.trial_id()},
           {"attempt", r.attempt()},
           {"worker_id", r.worker_id().to_string()},
@@ -46,6 +46,14 @@ nlohmann::json to_json(const msg::RolloutReport& r) {
           {"distance_m", number(r.distance_m())},
           {"mean_speed_mps", number(r.mean_speed_mps())},
           {"wall_time_s", number(r.wall_time_s())}};
+  // Only hardware reports time a control loop; simulation reports keep their shape.
+  if (r.worker_kind() == msg::WORKER_HARDWARE) {
+    j["loop"] = {{"jitter_p50_us", number(r.loop_jitter_p50_us())},
+                 {"jitter_p99_us", number(r.loop_jitter_p99_us())},
+                 {"jitter_max_us", number(r.loop_jitter_max_us())},
+                 {"overruns", r.loop_overruns()}};
+  }
+  return j;
 }
 
 msg::RolloutReport report_from_json(const nlohmann::json& j) {
@@ -77,6 +85,13 @@ msg::RolloutReport report_from_json(const nlohmann::json& j) {
   r.distance_m(num(j.at("distance_m")));
   r.mean_speed_mps(num(j.at("mean_speed_mps")));
   r.wall_time_s(num(j.at("wall_time_s")));
+  if (j.contains("loop")) {
+    const auto& l = j.at("loop");
+    r.loop_jitter_p50_us(num(l.at("jitter_p50_us")));
+    r.loop_jitter_p99_us(num(l.at("jitter_p99_us")));
+    r.loop_jitter_max_us(num(l.at("jitter_max_us")));
+    r.loop_overruns(l.at("overruns").get<std::uint32_t>());
+  }
   return r;
 }
 

@@ -1,0 +1,105 @@
+#include "hardware_runner.hpp"
+
+#include <ctime>
+#include <mutex>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/can/can_bus.hpp"
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/robot/can_plant.hpp"
+#include "cpgmatch/robot/realtime.hpp"
+#include "cpgmatch/robot/robot_config.hpp"
+
+namespace cpgmatch::robot {
+namespace {
+
+double thread_cpu_s() {
+  struct timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+}  // namespace
+
+struct HardwareRunner::Impl {
+  HardwareRunnerOptions options;
+  RobotConfig config;
+  std::unique_ptr<can::CanBus> bus;
+  std::unique_ptr<CanPlant> plant;
+  std::once_flag realtime_once;
+  std::string realtime_warning;
+};
+
+HardwareRunner::HardwareRunner(const HardwareRunnerOptions& options) : impl_(std::make_unique<Impl>()) {
+  impl_->options = options;
+  impl_->config = load_robot_config(options.robot_path);
+  if (impl_->config.emulator_only && options.can_uri.rfind("socketcan:", 0) == 0) {
+    throw InputError(fmt::format("{}: emulator_only: true may not drive {} (its watchdog may be slower than the 20 ms "
+                                 "safety target); use the robot's own description",
+                                 options.robot_path, options.can_uri));
+  }
+  if (options.lockstep && !impl_->config.emulator_only) {
+    throw InputError(fmt::format("--lockstep needs a robot description with emulator_only: true ({} is not)", options.robot_path));
+  }
+  impl_->bus = can::open_can_bus(options.can_uri, can::BusRole::kController);
+  CanPlantOptions plant_options;
+  plant_options.wait_for_every_reply = options.lockstep;
+  impl_->plant = std::make_unique<CanPlant>(impl_->config, *impl_->bus, plant_options);
+}
+
+HardwareRunner::~HardwareRunner() {
+  if (impl_ && impl_->plant) impl_->plant->finish();
+}
+
+double HardwareRunner::control_rate_hz() const { return impl_->config.control_rate_hz; }
+
+std::string HardwareRunner::realtime_warning() const { return impl_->realtime_warning; }
+
+void HardwareRunner::emergency_stop(const char* reason) { impl_->plant->emergency_stop(reason); }
+
+HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSettings& requested, std::uint64_t seed) {
+  HardwareRollout out;
+  if (auto why = impl_->config.envelope_violation(params)) {
+    out.error = "refused: " + *why;
+    return out;
+  }
+  RolloutSettings settings = requested;
+  // The robot runs the controller at its own rate; run_rollout polls contacts at their configured rate
+  // on top of it (250 Hz on 500 Hz by default).
+  settings.controller.control_rate_hz = impl_->config.control_rate_hz;
+  if (impl_->options.realtime) {
+    std::call_once(impl_->realtime_once, [&] {
+      impl_->realtime_warning = enter_realtime(impl_->options.fifo_priority).warning;
+    });
+  }
+  CanPlant& plant = *impl_->plant;
+  if (auto why = plant.prepare(settings.entrain_s + settings.eval_s)) {
+    plant.finish();
+    out.error = "robot not ready: " + *why;
+    return out;
+  }
+  const double cpu_start = thread_cpu_s();
+  try {
+    out.result = run_rollout(plant, params, settings, seed);
+  } catch (const std::exception& e) {
+    plant.emergency_stop("the rollout threw");
+    plant.finish();
+    out.error = fmt::format("rollout failed: {}", e.what());
+    return out;
+  }
+  out.cpu_s = thread_cpu_s() - cpu_start;
+  plant.finish();
+  const LoopStats s = plant.loop_stats();
+  out.loop = {s.ticks, s.jitter_p50_us, s.jitter_p99_us, s.jitter_max_us, s.overruns,
+              s.feedback_latency_p50_us, s.feedback_latency_p99_us, s.feedback_latency_max_us,
+              s.missing_replies, s.unexpected_frames};
+  if (plant.fault_ended_rollout()) {
+    out.error = fmt::format("safe stop at t = {:.3f} s: {}", plant.state().time_s, plant.fault().value_or("?"));
+    return out;
+  }
+  out.ok = true;
+  return out;
+}
+
+}  // namespace cpgmatch::robot

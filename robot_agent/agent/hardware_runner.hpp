@@ -1,0 +1,72 @@
+// Runs rollouts on the robot: the common/ rollout loop against a CanPlant on the motor bus, with the
+// safety checks around it. This header is plain C++17 on purpose: the agent's DDS shell includes it, and
+// targets with generated DDS types are built as C++17 (idl/CMakeLists.txt); the CAN and plant code
+// behind it is C++20.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "cpgmatch/params.hpp"
+#include "cpgmatch/rollout.hpp"
+
+namespace cpgmatch::robot {
+
+struct HardwareRunnerOptions {
+  std::string can_uri;
+  std::string robot_path;
+  bool realtime = true;      // SCHED_FIFO + mlockall for the rollout thread when permitted
+  int fifo_priority = 80;
+  // Emulator in lockstep only (needs an emulator_only robot description): wait for every reply.
+  bool lockstep = false;
+};
+
+struct HardwareLoopStats {
+  std::uint64_t ticks = 0;
+  double jitter_p50_us = 0.0;
+  double jitter_p99_us = 0.0;
+  double jitter_max_us = 0.0;
+  std::uint64_t overruns = 0;
+  double feedback_latency_p50_us = 0.0;  // command sent to every motor and sensor heard
+  double feedback_latency_p99_us = 0.0;
+  double feedback_latency_max_us = 0.0;
+  std::uint64_t missing_replies = 0;
+  std::uint64_t unexpected_frames = 0;
+};
+
+struct HardwareRollout {
+  bool ok = false;            // false: refused or stopped by a fault; `error` says why
+  std::string error;
+  RolloutResult result;       // valid when ok
+  HardwareLoopStats loop;
+  double cpu_s = 0.0;         // the rollout thread's CPU time
+};
+
+class HardwareRunner {
+ public:
+  // Opens the bus and loads the robot YAML. Throws InputError for a bad URI or YAML, CanError (a
+  // std::runtime_error) when the bus cannot open.
+  explicit HardwareRunner(const HardwareRunnerOptions& options);
+  ~HardwareRunner();
+  HardwareRunner(const HardwareRunner&) = delete;
+  HardwareRunner& operator=(const HardwareRunner&) = delete;
+
+  // One rollout: refuses parameters outside the robot's safe envelope, prepares the robot (motors on,
+  // ramp to standing), runs the common rollout loop at the robot's control rate, ends in the safe
+  // state and motors off. Blocks; call from the thread that should run the real-time loop.
+  HardwareRollout run(const CpgParameters& params, const RolloutSettings& settings, std::uint64_t seed);
+
+  // From any thread (signal handling, emergency-stop topic): the running rollout trips at once.
+  void emergency_stop(const char* reason);
+
+  // What was refused when entering real-time mode (empty when granted); set after the first run().
+  std::string realtime_warning() const;
+  double control_rate_hz() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cpgmatch::robot

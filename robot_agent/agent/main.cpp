@@ -1,0 +1,362 @@
+// cpgmatch-robot-agent: the robot's worker. Joins a study's DDS domain as a worker of kind hardware with
+// capacity 1 and runs each candidate on the robot through the CAN bus, with the same controller,
+// feedback, contact sensing and cost code as the simulation (common/), returning the same reports.
+//
+//   cpgmatch-robot-agent --domain 7 --can socketcan:can0 [--robot ROBOT.yaml] [--id morti]
+//   cpgmatch-robot-agent --can udp:127.0.0.1:47000 --run-once [--params F] [--entrain S] [--eval S] [--json]
+//
+// --run-once runs one rollout without DDS and prints it (JSON: the report's fields plus the loop's
+// jitter), for bring-up and benchmarks. SIGINT/SIGTERM: the running rollout stops safely at once (motors
+// to the safe state, then off), its report says so, and the agent leaves the domain.
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <chrono>
+#include <condition_variable>
+#include <csignal>
+#include <deque>
+#include <iostream>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/dds/domain.hpp"
+#include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/dds/participant.hpp"
+#include "cpgmatch/errors.hpp"
+#include "hardware_runner.hpp"
+
+namespace cpgmatch::robot {
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+
+struct Options {
+  int domain = -1;
+  std::string id;
+  std::string can_uri;
+  std::string robot_path;
+  std::string settings_path;
+  std::string params_path;
+  double entrain_s = -1.0;
+  double eval_s = -1.0;
+  std::uint64_t seed = 0;
+  bool run_once = false;
+  bool json = false;
+  bool localhost_only = false;
+  bool no_realtime = false;
+  bool lockstep = false;
+  double heartbeat_s = 0.5;
+};
+
+std::string config_path(const std::string& relative) {
+  const char* env = std::getenv("CPGMATCH_CONFIG_DIR");
+  return (env && *env ? std::string(env) : std::string(CPGMATCH_CONFIG_DIR)) + "/" + relative;
+}
+
+msg::RolloutReport to_report(const HardwareRollout& h) {
+  msg::RolloutReport r;
+  if (h.ok) {
+    dds::fill_report(r, h.result);
+    r.ok(true);
+  } else {
+    r.ok(false);
+    r.error(h.error.substr(0, 255));
+    r.cost(std::nan(""));
+    r.fall_time_s(-1.0);
+  }
+  r.worker_kind(msg::WORKER_HARDWARE);
+  r.loop_jitter_p50_us(h.loop.jitter_p50_us);
+  r.loop_jitter_p99_us(h.loop.jitter_p99_us);
+  r.loop_jitter_max_us(h.loop.jitter_max_us);
+  r.loop_overruns(static_cast<std::uint32_t>(std::min<std::uint64_t>(h.loop.overruns, UINT32_MAX)));
+  return r;
+}
+
+nlohmann::json loop_json(const HardwareRollout& h) {
+  return {{"ticks", h.loop.ticks},
+          {"jitter_p50_us", h.loop.jitter_p50_us},
+          {"jitter_p99_us", h.loop.jitter_p99_us},
+          {"jitter_max_us", h.loop.jitter_max_us},
+          {"overruns", h.loop.overruns},
+          {"feedback_latency_p50_us", h.loop.feedback_latency_p50_us},
+          {"feedback_latency_p99_us", h.loop.feedback_latency_p99_us},
+          {"feedback_latency_max_us", h.loop.feedback_latency_max_us},
+          {"missing_replies", h.loop.missing_replies},
+          {"unexpected_frames", h.loop.unexpected_frames},
+          {"cpu_s", h.cpu_s}};
+}
+
+std::string loop_summary(const HardwareRollout& h) {
+  return fmt::format(
+      "loop {} ticks, jitter p50 {:.0f} us p99 {:.0f} us max {:.0f} us, {} overruns, feedback latency p50 {:.0f} us p99 "
+      "{:.0f} us, {} missing replies, cpu {:.2f} s",
+      h.loop.ticks, h.loop.jitter_p50_us, h.loop.jitter_p99_us, h.loop.jitter_max_us, h.loop.overruns,
+      h.loop.feedback_latency_p50_us, h.loop.feedback_latency_p99_us, h.loop.missing_replies, h.cpu_s);
+}
+
+// Stops the running rollout when a signal arrives (a signal handler may not touch the bus itself).
+class SignalWatch {
+ public:
+  explicit SignalWatch(HardwareRunner& runner)
+      : thread_([this, &runner] {
+          while (!done_) {
+            if (g_stop && !fired_) {
+              runner.emergency_stop("SIGINT/SIGTERM");
+              fired_ = true;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+          }
+        }) {}
+  ~SignalWatch() {
+    done_ = true;
+    thread_.join();
+  }
+
+ private:
+  std::atomic<bool> done_{false};
+  bool fired_ = false;
+  std::thread thread_;
+};
+
+int run_once(const Options& o, HardwareRunner& runner, const RolloutSettings& settings, const CpgParameters& params) {
+  SignalWatch watch(runner);
+  const HardwareRollout h = runner.run(params, settings, o.seed);
+  if (!runner.realtime_warning().empty()) spdlog::warn("{}", runner.realtime_warning());
+  if (o.json) {
+    nlohmann::json j = dds::to_json(to_report(h));
+    j["loop"] = loop_json(h);  // the report's loop fields and more
+    j["sim_time_s"] = h.result.sim_time_s;
+    std::cout << j.dump() << std::endl;
+  } else if (h.ok) {
+    fmt::print("cost {:.4f}{}; {}\n", h.result.cost, h.result.fell ? fmt::format(" (fell at {:.2f} s)", h.result.fall_time_s) : "",
+               loop_summary(h));
+  } else {
+    fmt::print("failed: {}; {}\n", h.error, loop_summary(h));
+  }
+  if (!h.ok && h.error.rfind("refused:", 0) == 0) return kExitBadInput;
+  return h.ok ? kExitOk : kExitFailure;
+}
+
+// The DDS worker: one rollout at a time on its own thread (the real-time thread); heartbeats here.
+class HardwareWorker {
+ public:
+  HardwareWorker(const Options& o, HardwareRunner& runner, RolloutSettings settings, CpgParameters base)
+      : options_(o),
+        runner_(runner),
+        settings_(std::move(settings)),
+        base_params_(base),
+        participant_(dds::ParticipantConfig{o.domain, "cpgmatch-robot-agent " + o.id, o.localhost_only, {}}),
+        reports_(participant_),
+        announcements_(participant_),
+        candidates_(participant_, "candidates_for_" + o.id, "worker_id = %0", {"'" + o.id + "'"},
+                    [this](const msg::Candidate& c) { accept(c); }) {
+    rollout_thread_ = std::thread([this] { rollout_loop(); });
+  }
+
+  void run() {
+    char host[256] = "robot";
+    gethostname(host, sizeof(host) - 1);
+    host_ = host;
+    spdlog::info("robot agent {} on domain {}: hardware worker, capacity 1", options_.id, options_.domain);
+    SignalWatch watch(runner_);
+    while (!g_stop) {
+      announce(true);
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [] { return g_stop != 0; });
+    }
+    announce(false);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      draining_ = true;
+      queue_.clear();
+      wake_.notify_all();
+    }
+    rollout_thread_.join();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the last report go out reliably
+    announcements_.unregister(last_announcement_);
+    spdlog::info("robot agent {}: {} rollouts done, bye", options_.id, completed_);
+  }
+
+ private:
+  void accept(const msg::Candidate& c) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (draining_) return;
+    for (const auto& q : queue_) {
+      if (q.study_id() == c.study_id() && q.trial_id() == c.trial_id() && q.attempt() == c.attempt()) return;
+    }
+    queue_.push_back(c);
+    wake_.notify_all();
+  }
+
+  void rollout_loop() {
+    while (true) {
+      msg::Candidate c;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [&] { return draining_ || !queue_.empty(); });
+        if (draining_) return;
+        c = queue_.front();
+        queue_.pop_front();
+        busy_ = 1;
+      }
+      msg::RolloutReport report = execute(c);
+      std::lock_guard<std::mutex> lock(mutex_);
+      reports_.write(report);
+      busy_ = 0;
+      ++completed_;
+    }
+  }
+
+  msg::RolloutReport execute(const msg::Candidate& c) {
+    const auto start = std::chrono::steady_clock::now();
+    HardwareRollout h;
+    if (auto why = dds::check_parameters(c.parameters())) {
+      h.error = "bad parameters: " + *why;
+    } else {
+      CpgParameters params = base_params_;
+      RolloutSettings settings = settings_;
+      try {
+        for (const auto& [name, value] : dds::from_wire(c.parameters())) set_parameter(params, name, value, "candidate");
+        settings.entrain_s = c.rollout().entrain_s();
+        settings.eval_s = c.rollout().eval_s();
+        if (!(settings.entrain_s >= 0.0 && settings.eval_s > 0.0 && settings.entrain_s + settings.eval_s <= 600.0)) {
+          throw InputError(fmt::format("rollout length entrain {} s + eval {} s must be in (0, 600] s", settings.entrain_s, settings.eval_s));
+        }
+        spdlog::info("study {} trial {}: rollout on the robot ({} + {} s)", c.study_id(), c.trial_id(), settings.entrain_s, settings.eval_s);
+        h = runner_.run(params, settings, c.rollout().seed());
+      } catch (const std::exception& e) {
+        h.ok = false;
+        h.error = e.what();
+      }
+    }
+    if (!runner_.realtime_warning().empty() && !warned_) {
+      spdlog::warn("{}", runner_.realtime_warning());
+      warned_ = true;
+    }
+    if (h.ok) {
+      spdlog::info("study {} trial {}: cost {:.4f}{}; {}", c.study_id(), c.trial_id(), h.result.cost, h.result.fell ? " (fell)" : "", loop_summary(h));
+    } else {
+      spdlog::warn("study {} trial {}: {}; {}", c.study_id(), c.trial_id(), h.error, loop_summary(h));
+    }
+    msg::RolloutReport r = to_report(h);
+    r.study_id(c.study_id());
+    r.trial_id(c.trial_id());
+    r.attempt(c.attempt());
+    r.worker_id(options_.id);
+    r.wall_time_s(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    return r;
+  }
+
+  void announce(bool accepting) {
+    msg::WorkerAnnouncement a;
+    a.worker_key(dds::worker_key(options_.id));
+    a.worker_id(options_.id);
+    a.kind(msg::WORKER_HARDWARE);
+    a.host(host_);
+    a.pid(static_cast<std::uint32_t>(getpid()));
+    a.slots(1);
+    a.heartbeat_period_s(options_.heartbeat_s);
+    a.accepting(accepting);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      a.busy(busy_);
+      a.completed(completed_);
+    }
+    announcements_.write(a);
+    last_announcement_ = a;
+  }
+
+  Options options_;
+  HardwareRunner& runner_;
+  RolloutSettings settings_;
+  CpgParameters base_params_;
+  std::string host_;
+  bool warned_ = false;
+  dds::Participant participant_;
+  dds::Writer<msg::RolloutReport> reports_;
+  dds::Writer<msg::WorkerAnnouncement> announcements_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<msg::Candidate> queue_;
+  std::uint32_t busy_ = 0;
+  std::uint64_t completed_ = 0;
+  bool draining_ = false;
+  msg::WorkerAnnouncement last_announcement_;
+  std::thread rollout_thread_;
+  // Last: its callback uses everything above.
+  dds::Reader<msg::Candidate> candidates_;
+};
+
+}  // namespace
+}  // namespace cpgmatch::robot
+
+int main(int argc, char** argv) {
+  using namespace cpgmatch;
+  using namespace cpgmatch::robot;
+  CLI::App app{"cpgmatch-robot-agent: runs study candidates on the robot over its CAN bus"};
+  Options o;
+  app.add_option("--can", o.can_uri, "bus URI: socketcan:IFACE, udp:HOST:PORT or virtual:NAME")->required();
+  app.add_option("--robot", o.robot_path, "robot YAML (default: configs/robot/morti.yaml)");
+  app.add_option("--domain", o.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
+  app.add_option("--id", o.id, "worker id, unique on the domain (default: HOST-robot)");
+  app.add_option("--settings", o.settings_path, "rollout settings YAML (default: configs/rollout.yaml)");
+  app.add_flag("--localhost-only", o.localhost_only, "DDS over UDP on 127.0.0.1 only");
+  app.add_flag("--no-realtime", o.no_realtime, "do not ask for SCHED_FIFO and locked memory");
+  app.add_flag("--lockstep", o.lockstep,
+               "with cpgmatch-robot-emulator --lockstep only: wait for every reply, even past a deadline "
+               "(needs an emulator_only robot YAML)");
+  app.add_flag("--run-once", o.run_once, "run one rollout without DDS and print it");
+  app.add_option("--params", o.params_path, "--run-once: parameter YAML (default: configs/params/default.yaml)");
+  app.add_option("--entrain", o.entrain_s, "--run-once: entrainment seconds (default: the settings')");
+  app.add_option("--eval", o.eval_s, "--run-once: evaluation seconds (default: the settings')");
+  app.add_option("--seed", o.seed, "--run-once: seed of the contact-sensor noise");
+  app.add_flag("--json", o.json, "--run-once: one JSON object");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? kExitOk : kExitBadInput;
+  }
+  spdlog::set_default_logger(spdlog::stderr_color_mt("agent"));
+  return run_reporting_errors([&] {
+    if (o.robot_path.empty()) o.robot_path = config_path("robot/morti.yaml");
+    if (o.settings_path.empty()) o.settings_path = config_path("rollout.yaml");
+    if (o.params_path.empty()) o.params_path = config_path("params/default.yaml");
+    RolloutSettings settings = load_rollout_settings(o.settings_path);
+    const CpgParameters params = load_parameters(o.params_path);
+    if (o.entrain_s >= 0.0) settings.entrain_s = o.entrain_s;
+    if (o.eval_s >= 0.0) settings.eval_s = o.eval_s;
+    if (!(settings.eval_s > 0.0)) throw InputError("--eval must be > 0");
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    HardwareRunnerOptions ro;
+    ro.can_uri = o.can_uri;
+    ro.robot_path = o.robot_path;
+    ro.realtime = !o.no_realtime;
+    ro.lockstep = o.lockstep;
+    HardwareRunner runner(ro);
+    if (o.run_once) return run_once(o, runner, settings, params);
+    if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
+    cpgmatch::dds::validate_domain(o.domain);
+    if (o.id.empty()) {
+      char host[256] = "host";
+      gethostname(host, sizeof(host) - 1);
+      o.id = fmt::format("{}-robot", host);
+    }
+    if (o.id.size() > 63) throw InputError(fmt::format("--id: at most 63 characters, got {}", o.id.size()));
+    if (o.id.find('\'') != std::string::npos) throw InputError("--id must not contain a quote");
+    HardwareWorker worker(o, runner, settings, params);
+    worker.run();
+    return kExitOk;
+  });
+}

@@ -1,0 +1,209 @@
+// cpgmatch-robot-emulator: Morti in ODE behind the robot's motor and sensor protocol on a CAN bus, so
+// the agent runs end to end without hardware: timing, protocol, safety and all.
+//
+//   cpgmatch-robot-emulator --can udp:127.0.0.1:47000 [--model MODEL.yaml] [--robot ROBOT.yaml]
+//
+// Real time (default): physics steps at the model's rate against the wall clock; each motor answers its
+// command at once with its latest state, like a motor driver; the sensor nodes stream every control
+// period. --lockstep instead steps one control period of physics whenever every motor has been
+// commanded, then answers: bit-for-bit the sequence of a direct simulation, whatever the load.
+//
+// A rollout starts when the motors are enabled after all were off: the robot is put back on its feet
+// (a fresh world), as an operator would. While every motor is off the robot hangs in its rig (no
+// physics), so it cannot collapse between rollouts.
+#include <csignal>
+#include <memory>
+#include <optional>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "cpgmatch/can/can_bus.hpp"
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/robot/realtime.hpp"
+#include "cpgmatch/robot/robot_config.hpp"
+#include "cpgmatch/robot/robot_device.hpp"
+#include "cpgmatch/sim/ode_plant.hpp"
+#include "cpgmatch/sim/sim_rollout.hpp"
+
+namespace cpgmatch::robot {
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+
+struct Options {
+  std::string can_uri;
+  std::string model_path;
+  std::string robot_path;
+  std::string terrain = "flat";
+  std::uint64_t seed = 0;
+  bool lockstep = false;
+  DeviceImperfections imperfections;
+  double latency_ms = 0.0;
+  double extra_friction_nm = 0.0;
+};
+
+// Dry friction added to every hip gearbox and knee bearing: a robot that is stiffer than its model.
+sim::MortiModel with_extra_friction(sim::MortiModel model, double extra_nm) {
+  model.hip_motor.coulomb_friction_nm += extra_nm;
+  model.knee_joint_friction_nm += extra_nm;
+  return model;
+}
+
+class Emulator {
+ public:
+  explicit Emulator(const Options& o)
+      : options_(o),
+        model_(with_extra_friction(sim::load_morti_model(o.model_path), o.extra_friction_nm)),
+        terrain_(sim::TerrainSpec::parse(o.terrain)),
+        config_(load_robot_config(o.robot_path)),
+        bus_(can::open_can_bus(o.can_uri, can::BusRole::kDevice)),
+        device_(config_, *bus_, o.imperfections) {
+    reset_world();
+    const double ratio = model_.physics_rate_hz / config_.control_rate_hz;
+    steps_per_control_ = static_cast<int>(std::lround(ratio));
+    if (steps_per_control_ < 1 || std::abs(ratio - steps_per_control_) > 1e-9) {
+      throw InputError(fmt::format("the model's physics rate {} Hz must be a multiple of the robot's control rate {} Hz",
+                                   model_.physics_rate_hz, config_.control_rate_hz));
+    }
+  }
+
+  int run() {
+    std::fprintf(stderr, "emulator: Morti on %s, %s, terrain %s\n", options_.can_uri.c_str(),
+                 options_.lockstep ? "lockstep" : "real time", terrain_.describe().c_str());
+    return options_.lockstep ? run_lockstep() : run_realtime();
+  }
+
+ private:
+  void reset_world() {
+    plant_ = std::make_unique<sim::OdePlant>(model_, terrain_, options_.seed);
+    device_.update(plant_->state(), 0.0);
+  }
+
+  bool any_enabled() const {
+    for (int j = 0; j < kNumJoints; ++j) {
+      if (device_.enabled(j)) return true;
+    }
+    return false;
+  }
+
+  bool all_enabled() const {
+    for (int j = 0; j < kNumJoints; ++j) {
+      if (!device_.enabled(j)) return false;
+    }
+    return true;
+  }
+
+  // Applies one received frame's consequences that do not depend on the stepping mode.
+  RobotDevice::Received take(std::chrono::nanoseconds timeout) {
+    const bool was_enabled = any_enabled();
+    const RobotDevice::Received got = device_.receive(timeout);
+    if (got.event == RobotDevice::Event::kEnable && !was_enabled) {
+      reset_world();
+      ++rollouts_;
+      std::fprintf(stderr, "emulator: motors enabled, rollout %d starts on a fresh world\n", rollouts_);
+    }
+    return got;
+  }
+
+  void step_physics() {
+    const double dt = plant_->time_step_s();
+    plant_->command(device_.joint_commands());
+    plant_->advance(dt);
+    device_.update(plant_->state(), dt);
+  }
+
+  int run_lockstep() {
+    while (!g_stop) {
+      const auto got = take(std::chrono::milliseconds(50));
+      if (got.event == RobotDevice::Event::kEnable) {
+        device_.reply(got.joint);
+        if (all_enabled()) device_.send_sensors();  // once the robot is ready, not once per motor
+      } else if (got.event == RobotDevice::Event::kCommand && device_.all_commanded()) {
+        for (int k = 0; k < steps_per_control_; ++k) step_physics();
+        device_.reply_all();
+        device_.send_sensors();
+        device_.clear_commanded();
+      }
+      device_.flush();
+    }
+    return kExitOk;
+  }
+
+  int run_realtime() {
+    // Like the robot's own drivers, the twin must keep time: ask for the same real-time treatment.
+    if (const RealtimeSetup rt = enter_realtime(70); !rt.warning.empty()) std::fprintf(stderr, "emulator: %s\n", rt.warning.c_str());
+    const double dt = plant_->time_step_s();
+    PeriodicTimer timer(std::llround(dt * 1e9));
+    timer.start();
+    long step = 0;
+    while (!g_stop) {
+      // Until the next physics step: answer every command at once with the latest state.
+      while (true) {
+        const std::int64_t left = to_ns(timer.deadline()) - monotonic_ns();
+        if (left <= 0) break;
+        const auto got = take(std::chrono::nanoseconds(left));
+        if (got.event == RobotDevice::Event::kCommand || got.event == RobotDevice::Event::kEnable) {
+          if (got.event == RobotDevice::Event::kEnable || device_.enabled(got.joint)) device_.reply(got.joint);
+        }
+        device_.flush();
+      }
+      bool passed = false;
+      timer.wait(passed);
+      if (any_enabled()) step_physics();  // all motors off: the robot hangs in its rig
+      if (++step % steps_per_control_ == 0) device_.send_sensors();
+      device_.flush();
+    }
+    return kExitOk;
+  }
+
+  Options options_;
+  sim::MortiModel model_;
+  sim::TerrainSpec terrain_;
+  RobotConfig config_;
+  std::unique_ptr<can::CanBus> bus_;
+  RobotDevice device_;
+  std::unique_ptr<sim::OdePlant> plant_;
+  int steps_per_control_ = 2;
+  int rollouts_ = 0;
+};
+
+}  // namespace
+}  // namespace cpgmatch::robot
+
+int main(int argc, char** argv) {
+  using namespace cpgmatch;
+  using namespace cpgmatch::robot;
+  CLI::App app{"cpgmatch-robot-emulator: Morti in ODE behind the robot's CAN motor and sensor protocol"};
+  Options o;
+  app.add_option("--can", o.can_uri, "bus URI: udp:HOST:PORT (binds it), socketcan:IFACE or virtual:NAME")->required();
+  app.add_option("--model", o.model_path, "model YAML (default: configs/model/morti.yaml)");
+  app.add_option("--robot", o.robot_path, "robot YAML (default: configs/robot/morti.yaml)");
+  app.add_option("--terrain", o.terrain, "flat | step:H@D | rough:A | shift:H@T")->capture_default_str();
+  app.add_option("--seed", o.seed, "seed of the world (rough terrain) and of the imperfections")->capture_default_str();
+  app.add_flag("--lockstep", o.lockstep, "step one control period whenever every motor was commanded (no wall clock)");
+  app.add_option("--position-noise", o.imperfections.position_noise_rad, "Gaussian noise on motor positions, rad")->check(CLI::Range(0.0, 1.0));
+  app.add_option("--foot-noise", o.imperfections.foot_noise_n, "Gaussian noise on foot forces, N")->check(CLI::Range(0.0, 100.0));
+  app.add_option("--contact-dropout", o.imperfections.contact_dropout, "probability a foot frame reads 0 N")->check(CLI::Range(0.0, 1.0));
+  app.add_option("--reply-dropout", o.imperfections.reply_dropout, "probability a motor reply is lost")->check(CLI::Range(0.0, 1.0));
+  app.add_option("--latency-ms", o.latency_ms, "delay of every frame the robot sends, ms")->check(CLI::Range(0.0, 100.0));
+  app.add_option("--backlash", o.imperfections.backlash_rad, "gear play between encoder and joint, rad (total)")->check(CLI::Range(0.0, 0.5));
+  app.add_option("--extra-friction", o.extra_friction_nm, "dry friction added to every hip gearbox and knee bearing, N m")
+      ->check(CLI::Range(0.0, 5.0));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? kExitOk : kExitBadInput;
+  }
+  return run_reporting_errors([&] {
+    if (o.model_path.empty()) o.model_path = sim::default_model_path();
+    if (o.robot_path.empty()) o.robot_path = default_robot_config_path();
+    o.imperfections.latency_s = o.latency_ms / 1000.0;
+    o.imperfections.seed = o.seed + 1;
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    Emulator emulator(o);
+    return emulator.run();
+  });
+}

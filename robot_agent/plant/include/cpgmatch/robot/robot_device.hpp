@@ -1,0 +1,90 @@
+// The robot's side of the bus: the eight MIT motors and the foot and trunk sensor nodes a RobotConfig
+// describes, around a body that supplies the measurements (the ODE Morti in the emulator, a scripted
+// body in tests). It decodes what the motors are told into the Plant's joint commands and answers as
+// the motors and sensors would, with optional imperfections (noise, lost frames, contact dropouts,
+// latency) so that a sim2real gap can be produced on purpose.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <random>
+
+#include "cpgmatch/can/can_bus.hpp"
+#include "cpgmatch/plant.hpp"
+#include "cpgmatch/robot/can_plant.hpp"
+#include "cpgmatch/robot/robot_config.hpp"
+
+namespace cpgmatch::robot {
+
+struct DeviceImperfections {
+  double position_noise_rad = 0.0;   // Gaussian, on every motor position reply (joint units)
+  double foot_noise_n = 0.0;         // Gaussian, on every foot force frame
+  double contact_dropout = 0.0;      // probability that a foot frame reports 0 N
+  double reply_dropout = 0.0;        // probability that a motor reply is lost
+  double latency_s = 0.0;            // every frame leaves this much later (flush() sends what is due)
+  // Gear play between the motor's encoder and the joint: the reported angle follows the joint only once
+  // the play is taken up (a dead band of this total width, joint units).
+  double backlash_rad = 0.0;
+  std::uint64_t seed = 1;
+};
+
+class RobotDevice {
+ public:
+  RobotDevice(const RobotConfig& config, can::CanBus& bus, DeviceImperfections imperfections = {});
+
+  enum class Event { kNone, kCommand, kEnable, kDisable, kZero, kIgnored };
+  struct Received {
+    Event event = Event::kNone;
+    int joint = -1;
+  };
+  // Takes at most one frame (waiting up to `timeout`) and applies it to the motors' state.
+  Received receive(std::chrono::nanoseconds timeout);
+
+  // What the motors are doing, in the Plant's terms: targets of enabled motors; a hip whose motor is
+  // off or told kp = kd = 0 is passive; a knee whose motor is off keeps its last target.
+  const PerLeg<JointCommand>& joint_commands() const { return commands_; }
+  bool enabled(int joint) const { return enabled_[joint]; }
+  // Every motor has been commanded since the last clear_commanded() (lockstep stepping).
+  bool all_commanded() const;
+  void clear_commanded() { commanded_.fill(false); }
+  // The last impedance command a joint received, motor-shaft units (tests read the safe state here).
+  const MotorCommand& last_command(int joint) const { return last_command_[joint]; }
+  std::int64_t last_command_ns(int joint) const { return last_command_ns_[joint]; }
+
+  // New body measurements; joint velocities come from the change since the previous update.
+  void update(const PlantState& state, double dt_s);
+  void reply(int joint);     // one motor's reply (as after its command)
+  void reply_all();
+  void send_sensors();       // the four foot frames and the two trunk frames
+  void flush();              // sends delayed frames that are due (latency_s > 0)
+
+ private:
+  void emit(const can::CanFrame& frame);
+  double gaussian(double sigma);
+
+  RobotConfig config_;
+  can::CanBus& bus_;
+  DeviceImperfections imperfections_;
+  std::array<const JointConfig*, kNumJoints> joints_{};
+  std::array<bool, kNumJoints> enabled_{};
+  std::array<bool, kNumJoints> commanded_{};
+  std::array<MotorCommand, kNumJoints> last_command_{};
+  std::array<std::int64_t, kNumJoints> last_command_ns_{};
+  std::array<double, kNumJoints> zero_{};  // motor position at the last set-zero
+  PerLeg<JointCommand> commands_{};
+  PlantState state_{};
+  std::array<double, kNumJoints> position_{}, velocity_{}, torque_{};
+  std::array<double, kNumJoints> encoder_{};  // the motor side of the gear play
+  bool have_state_ = false;
+  std::uint8_t sequence_ = 0;
+  std::mt19937_64 rng_;
+  struct Delayed {
+    std::int64_t due_ns;
+    can::CanFrame frame;
+  };
+  std::deque<Delayed> delayed_;
+};
+
+}  // namespace cpgmatch::robot

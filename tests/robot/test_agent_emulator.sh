@@ -1,0 +1,91 @@
+#!/usr/bin/env bash
+# The agent against the CAN-level twin over udp: on loopback, without DDS (--run-once): bad input, the
+# safe envelope, the direct simulation reproduced in lockstep, the emulator killed mid-rollout, SIGTERM.
+source "$(dirname "$0")/robot_lib.sh"
+relaxed_robot_yaml "$WORK/robot.yaml"
+AGENT="$BIN/cpgmatch-robot-agent"
+
+# Bad input: exit 2 naming the part; a bus that cannot open: exit 1 with the reason.
+set +e
+out=$("$AGENT" --can tcp:1.2.3.4:5 --run-once 2>&1); rc=$?
+set -e
+[[ $rc == 2 && $out == *"unknown scheme 'tcp'"* ]] || fail "bad scheme: rc $rc: $out"
+set +e
+out=$("$AGENT" --can udp:127.0.0.1:99999 --run-once 2>&1); rc=$?
+set -e
+[[ $rc == 2 && $out == *"port '99999' must be a number in 1..65535"* ]] || fail "bad port: rc $rc: $out"
+sed 's/FL_knee:/FL_ankle:/' "$CONFIGS/robot/morti.yaml" >"$WORK/unknown-joint.yaml"
+set +e
+out=$("$AGENT" --can udp:127.0.0.1:1 --robot "$WORK/unknown-joint.yaml" --run-once 2>&1); rc=$?
+set -e
+[[ $rc == 2 && $out == *"unknown-joint.yaml:"*"field 'joints.FL_ankle': unknown joint"* ]] || fail "unknown joint: rc $rc: $out"
+set +e
+out=$("$AGENT" --can socketcan:can0 --run-once 2>&1); rc=$?
+set -e
+[[ $rc == 1 && ( $out == *"socketcan:can0: this kernel has no SocketCAN (AF_CAN)"* || $out == *"socketcan:can0: no network interface"* ) ]] \
+  || fail "socketcan: rc $rc: $out"
+set +e
+out=$("$AGENT" --can socketcan:can0 --robot "$WORK/robot.yaml" --run-once 2>&1); rc=$?
+set -e
+[[ $rc == 2 && $out == *"emulator_only: true may not drive socketcan:can0"* ]] || fail "emulator_only on socketcan: rc $rc: $out"
+
+# A candidate outside the robot's safe envelope is refused before any motor moves.
+PORT=$(free_udp_port)
+printf 'hip_amplitude: 0.69\n' >"$WORK/wide.yaml"
+set +e
+out=$("$AGENT" --can "udp:127.0.0.1:$PORT" --robot "$WORK/robot.yaml" --run-once --params "$WORK/wide.yaml" --json 2>"$WORK/refused.log"); rc=$?
+set -e
+[[ $rc == 2 ]] || fail "out-of-envelope candidate: rc $rc: $out"
+[[ $(json_field "$out" error) == "refused: hip_amplitude = 0.69 is outside the robot's safe envelope [0.05, 0.65]"* ]] || fail "refusal: $out"
+
+# Lockstep: the agent reproduces the direct simulation of the same parameters and seed.
+start_emulator "udp:127.0.0.1:$PORT" --lockstep
+agent=$("$AGENT" --can "udp:127.0.0.1:$PORT" --robot "$WORK/robot.yaml" --no-realtime --lockstep --run-once \
+        --params "$CONFIGS/params/matched-trot.yaml" --entrain 4 --eval 4 --seed 5 --json 2>>"$WORK/agent.log") \
+  || fail "agent rollout failed: $agent"
+sim=$("$BIN/cpgmatch" rollout --params "$CONFIGS/params/matched-trot.yaml" --entrain 4 --eval 4 --seed 5 --json) \
+  || fail "direct rollout failed"
+python3 - "$agent" "$sim" <<'PY' || fail "the agent does not reproduce the direct simulation"
+import json, sys
+agent, sim = json.loads(sys.argv[1]), json.loads(sys.argv[2])
+print("agent:", {k: agent[k] for k in ("cost", "fell", "distance_m", "normalized_torque")}, "loop:", agent["loop"])
+print("sim:  ", {k: sim[k] for k in ("cost", "fell", "distance_m")}, "terms:", sim["terms"])
+assert agent["ok"], agent["error"]
+assert agent["fell"] == sim["fell"]
+# Tolerance (docs/robot_agent.md): the bus quantises positions (0.4 mrad), torques (9 mN m) and forces
+# (0.01 N); the cost of a clean gait stays within 5 % of the direct simulation's.
+assert abs(agent["cost"] - sim["cost"]) <= 0.05 * abs(sim["cost"]), (agent["cost"], sim["cost"])
+assert abs(agent["distance_m"] - sim["distance_m"]) <= 0.05 * abs(sim["distance_m"]) + 0.01
+assert agent["loop"]["ticks"] == 4000
+PY
+kill -TERM "$EMU_PID"; wait "$EMU_PID" || fail "emulator exited $? after SIGTERM"
+
+# Real time, then the emulator dies mid-rollout: a safe stop with the reason, never a hang.
+PORT=$(free_udp_port)
+start_emulator "udp:127.0.0.1:$PORT"
+"$AGENT" --can "udp:127.0.0.1:$PORT" --robot "$WORK/robot.yaml" --run-once --params "$CONFIGS/params/matched-trot.yaml" \
+  --entrain 20 --eval 5 --json >"$WORK/killed.json" 2>>"$WORK/agent.log" &
+AGENT_PID=$!; PIDS+=("$AGENT_PID")
+sleep 2
+kill -9 "$EMU_PID"
+set +e
+timeout 10 tail --pid="$AGENT_PID" -f /dev/null; wait "$AGENT_PID"; rc=$?
+set -e
+out=$(cat "$WORK/killed.json")
+[[ $rc == 1 ]] || fail "agent after the emulator died: rc $rc: $out"
+[[ $(json_field "$out" error) == "safe stop at t = "*"silent for"* ]] || fail "no safe stop reason: $out"
+
+# SIGTERM mid-rollout: the rollout stops safely at once and says why.
+PORT=$(free_udp_port)
+start_emulator "udp:127.0.0.1:$PORT"
+"$AGENT" --can "udp:127.0.0.1:$PORT" --robot "$WORK/robot.yaml" --run-once --entrain 20 --eval 5 --json \
+  >"$WORK/term.json" 2>>"$WORK/agent.log" &
+AGENT_PID=$!; PIDS+=("$AGENT_PID")
+sleep 2
+kill -TERM "$AGENT_PID"
+set +e
+timeout 10 tail --pid="$AGENT_PID" -f /dev/null; wait "$AGENT_PID"; rc=$?
+set -e
+out=$(cat "$WORK/term.json")
+[[ $rc == 1 && $(json_field "$out" error) == *"emergency stop: SIGINT/SIGTERM"* ]] || fail "SIGTERM: rc $rc: $out"
+echo "PASS agent and emulator"

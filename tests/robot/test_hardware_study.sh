@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# A study served by the robot agent alone (the emulator in lockstep behind udp on loopback): the
+# optimizer's candidates run through CanPlant and come back as hardware reports in the store. SIGTERM
+# makes the agent leave cleanly.
+source "$(dirname "$0")/robot_lib.sh"
+relaxed_robot_yaml "$WORK/robot.yaml"
+PORT=$(free_udp_port)
+write_study "$WORK/s.yaml" hardware-only 3 3
+start_emulator "udp:127.0.0.1:$PORT" --lockstep
+start_optimizer "$WORK/s.db"
+"$BIN/cpgmatch-robot-agent" --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \
+  --robot "$WORK/robot.yaml" --no-realtime >>"$WORK/agent.log" 2>&1 &
+AGENT_PID=$!; PIDS+=("$AGENT_PID")
+out=$(cli study submit --config "$WORK/s.yaml" --wait --json --quiet --timeout 90) || fail "submit --wait failed: $out"
+[[ $(json_field "$out" state) == done ]] || fail "state: $out"
+[[ $(json_field "$out" completed) == 3 ]] || fail "completed: $out"
+n=$(sql "$WORK/s.db" "select count(*) from trials where json_extract(report_json,'$.worker_kind')='hardware' and json_extract(report_json,'$.ok') and worker_id='morti'")
+[[ $n == 3 ]] || fail "expected 3 ok hardware reports from morti, got $n"
+grep -q "loop .* ticks, jitter p50" "$WORK/agent.log" || fail "the agent did not log its loop statistics"
+n=$(sql "$WORK/s.db" "select count(*) from trials where json_extract(report_json,'$.loop.jitter_max_us') > 0")
+[[ $n == 3 ]] || fail "expected the loop jitter in all 3 stored reports, got $n"
+kill -TERM "$AGENT_PID"
+wait "$AGENT_PID" || fail "agent exited $? after SIGTERM"
+echo "PASS hardware study: $out"
