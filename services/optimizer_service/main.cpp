@@ -203,6 +203,9 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
   std::signal(SIGUSR1, service::on_stats_signal);
+  // A file-size limit (ulimit -f) reached by the store must be a write error naming the store, like a
+  // full disk, not a silent death by SIGXFSZ.
+  std::signal(SIGXFSZ, SIG_IGN);
   return run_reporting_errors([&] {
     return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
                         worker_timeout_s, localhost_only, model_threads);
