@@ -208,6 +208,9 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
   std::signal(SIGUSR1, service::on_stats_signal);
+  // A file-size limit (ulimit -f) reached by the store must be a write error naming the store, like a
+  // full disk, not a silent death by SIGXFSZ.
+  std::signal(SIGXFSZ, SIG_IGN);
   return run_reporting_errors([&] {
     runtime::export_config_dir();
     runtime::apply_dds_flags(dds_flags);
