@@ -150,9 +150,9 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       fb.reflex_knee_flexion_rad = f.get_double("reflex_knee_flexion_rad", fb.reflex_knee_flexion_rad);
       fb.reflex_hip_passive = f.get_bool("reflex_hip_passive", fb.reflex_hip_passive);
       fb.etd_min_airborne_s = f.get_double("etd_min_airborne_s", fb.etd_min_airborne_s);
-      fb.late_touchdown_max_wait_s = f.get_double("late_touchdown_max_wait_s", fb.late_touchdown_max_wait_s);
-      if (!(fb.late_touchdown_max_wait_s >= 0.0 && fb.late_touchdown_max_wait_s <= 10.0)) {
-        f.fail("late_touchdown_max_wait_s", "must be in [0, 10] s");
+      // Optional: absent means unbounded (the paper's "until contact"), which YAML cannot spell as a number.
+      if (f.has("late_touchdown_max_wait_s")) {
+        fb.late_touchdown_max_wait_s = f.get_double_in("late_touchdown_max_wait_s", 0.0, 0.0, 10.0);
       }
       if (!(fb.etd_min_airborne_s >= 0.0 && fb.etd_min_airborne_s <= 0.5)) f.fail("etd_min_airborne_s", "must be in [0, 0.5] s");
       if (fb.late_touchdown_phase_rate < 0.0 || fb.late_touchdown_phase_rate > 1.0) {

@@ -192,5 +192,23 @@ TEST(Physics, ModelFileErrorsNameFileLineAndField) {
   }
 }
 
+TEST(Physics, TheShippedSettingsLeaveTheLateTouchdownHoldUnboundedAndABadBoundIsRefused) {
+  const RolloutSettings shipped = load_rollout_settings(default_rollout_settings_path());
+  EXPECT_TRUE(std::isinf(shipped.controller.feedback.late_touchdown_max_wait_s));
+  const std::string path = ::testing::TempDir() + "/bad_settings.yaml";
+  {
+    std::ofstream f(path);
+    f << "controller:\n  feedback:\n    late_touchdown_max_wait_s: -0.1\n";
+  }
+  try {
+    (void)load_rollout_settings(path);
+    FAIL() << "expected InputError";
+  } catch (const cpgmatch::InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("bad_settings.yaml:3"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("late_touchdown_max_wait_s"), std::string::npos) << msg;
+  }
+}
+
 }  // namespace
 }  // namespace cpgmatch::sim
