@@ -160,7 +160,7 @@ TEST_F(MixedStudyTest, ExplorationGoesToSimulationAndTheValidationSetsToHardware
 }
 
 TEST_F(MixedStudyTest, ValidationSetsAreWithinTheSpreadAndBoundsAndTheSameForTheSameSeed) {
-  const bo::SearchSpace space({{"a", 0.0, 1.0}, {"b", -1.0, 1.0}, {"c", 0.5, 2.0}});
+  const bo::SearchSpace space({{"a", 0.0, 1.0, false, ""}, {"b", -1.0, 1.0, false, ""}, {"c", 0.5, 2.0, false, ""}});
   Eigen::VectorXd centre(3);
   centre << 0.98, 0.0, 1.0;  // a near its upper bound, b zero
   const auto sets = validation_sets(space, centre, 50, 0.1, 3);
