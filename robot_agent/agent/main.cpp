@@ -193,7 +193,10 @@ class HardwareWorker {
     std::lock_guard<std::mutex> lock(mutex_);
     if (draining_) return;
     for (const auto& q : queue_) {
-      if (q.study_id() == c.study_id() && q.trial_id() == c.trial_id() && q.attempt() == c.attempt()) return;
+      if (q.store_id() == c.store_id() && q.study_id() == c.study_id() && q.trial_id() == c.trial_id() &&
+          q.attempt() == c.attempt()) {
+        return;
+      }
     }
     queue_.push_back(c);
     wake_.notify_all();
@@ -250,6 +253,7 @@ class HardwareWorker {
       spdlog::warn("study {} trial {}: {}; {}", c.study_id(), c.trial_id(), h.error, loop_summary(h));
     }
     msg::RolloutReport r = to_report(h);
+    r.store_id(c.store_id());  // the optimizer counts only reports of its own store
     r.study_id(c.study_id());
     r.trial_id(c.trial_id());
     r.attempt(c.attempt());

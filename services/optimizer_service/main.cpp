@@ -53,10 +53,12 @@ struct Event {
   std::chrono::steady_clock::time_point arrived = std::chrono::steady_clock::now();
 };
 
-// Model threads by default: the cores left beside the event thread, at least one.
+// Model threads by default: one per core. They run niced, so the event thread still gets a core when it
+// needs one; with 20 studies on 2 cores, 2 threads gave 104 results/s against 78 for 1
+// (tests/bench/proposal_throughput.sh).
 int default_model_threads() {
   const int cores = static_cast<int>(std::thread::hardware_concurrency());
-  return std::clamp(cores - 1, 1, 16);
+  return std::clamp(cores, 1, 16);
 }
 
 // Publishes what the coordinator decides.
@@ -206,6 +208,9 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
   std::signal(SIGUSR1, service::on_stats_signal);
+  // A file-size limit (ulimit -f) reached by the store must be a write error naming the store, like a
+  // full disk, not a silent death by SIGXFSZ.
+  std::signal(SIGXFSZ, SIG_IGN);
   return run_reporting_errors([&] {
     runtime::export_config_dir();
     runtime::apply_dds_flags(dds_flags);

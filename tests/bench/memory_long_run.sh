@@ -13,19 +13,13 @@ domain=${BENCH_DOMAIN:-90}
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; rm -rf "$work"; }
 trap cleanup EXIT
-cli() { "$bin/cpgmatch" "$@" --domain "$domain" --localhost-only; }
+source "$(dirname "$0")/lib.sh"
 rss_kb() { awk '/VmRSS/ {print $2}' "/proc/$1/status"; }
 
 "${OPTIMIZER:-$bin/cpgmatch-optimizer}" --domain "$domain" --store "$work/s.db" --localhost-only --log-level warn 2>"$work/opt.log" &
 opt=$!; pids+=("$opt")
-for i in 1 2; do
-  "$bin/cpgmatch-sim-worker" --domain "$domain" --id "w$i" --slots 16 --fake-rollout-ms 5 --localhost-only \
-    --log-level warn 2>>"$work/workers.log" &
-  pids+=($!)
-done
-until [[ $(cli workers --json --timeout 5 | python3 -c 'import json,sys; print(len(json.load(sys.stdin)))') -ge 2 ]]; do
-  sleep 0.2
-done
+start_fake_workers "$domain" 2 16 5
+wait_for_workers "$domain" 2
 start=$SECONDS
 echo "studies_done trials_done rss_mb elapsed_s"
 echo "0 0 $(python3 -c "print(f'{$(rss_kb "$opt") / 1024:.1f}')") 0"

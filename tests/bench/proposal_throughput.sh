@@ -31,6 +31,7 @@ domain=${BENCH_DOMAIN:-70}
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; rm -rf "$work"; }
 trap cleanup EXIT
+source "$(dirname "$0")/lib.sh"
 
 run_row() {  # run_row STUDIES WORKERS SLOTS DELAY_MS THREADS
   local studies=$1 workers=$2 slots=$3 delay=$4 threads=$5
@@ -40,14 +41,9 @@ run_row() {  # run_row STUDIES WORKERS SLOTS DELAY_MS THREADS
   "$bin/cpgmatch-optimizer" --domain "$domain" --store "$store" --localhost-only --model-threads "$threads" \
     --log-level info 2>"$log" &
   local opt=$!; pids+=("$opt")
-  local ws=()
-  for i in $(seq "$workers"); do
-    "$bin/cpgmatch-sim-worker" --domain "$domain" --id "w$i" --slots "$slots" --fake-rollout-ms "$delay" \
-      --localhost-only --log-level warn 2>>"$work/workers.log" &
-    ws+=($!); pids+=($!)
-  done
-  until [[ $("$bin/cpgmatch" workers --json --domain "$domain" --localhost-only --timeout 5 |
-             python3 -c 'import json,sys; print(len(json.load(sys.stdin)))') -ge $workers ]]; do sleep 0.2; done
+  start_fake_workers "$domain" "$workers" "$slots" "$delay"
+  local ws=("${WORKER_PIDS[@]}")
+  wait_for_workers "$domain" "$workers"
   local submits=()
   for k in $(seq "$studies"); do
     printf 'name: bench-%d\nbudget: 150\ninitial_points: 15\nseed: %d\nrollout: {entrain_s: 0.2, eval_s: 0.2}\n' \

@@ -14,24 +14,19 @@ domain=${BENCH_DOMAIN:-60}
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
 trap cleanup EXIT
+source "$(dirname "$0")/lib.sh"
 
 run_study() {  # run_study NAME WORKERS SLOTS DELAY_MS BUDGET -> prints the store path
   local name=$1 workers=$2 slots=$3 delay=$4 n=$5 store="$work/$1.db"
   ((domain++))
   "$bin/cpgmatch-optimizer" --domain "$domain" --store "$store" --localhost-only --log-level warn 2>>"$work/opt.log" &
   local opt=$!; pids+=("$opt")
-  local ws=()
-  for i in $(seq "$workers"); do
-    "$bin/cpgmatch-sim-worker" --domain "$domain" --id "w$i" --slots "$slots" --fake-rollout-ms "$delay" \
-      --localhost-only --log-level warn 2>>"$work/workers.log" &
-    ws+=($!); pids+=($!)
-  done
+  start_fake_workers "$domain" "$workers" "$slots" "$delay"
+  local ws=("${WORKER_PIDS[@]}")
   # initial_points = budget: every proposal is random and the GP is never fitted (the optimizer skips the
   # fit after the last observation; a fit on thousands of points would measure the GP, not the service).
   printf 'name: %s\nbudget: %d\ninitial_points: %d\n' "$name" "$n" "$n" >"$work/$name.yaml"
-  # Wait until every worker has announced itself, so the run measures the steady state.
-  until [[ $("$bin/cpgmatch" workers --json --domain "$domain" --localhost-only --timeout 5 |
-             python3 -c 'import json,sys; print(len(json.load(sys.stdin)))') -ge $workers ]]; do sleep 0.2; done
+  wait_for_workers "$domain" "$workers"  # every worker announced: the run measures the steady state
   "$bin/cpgmatch" study submit --config "$work/$name.yaml" --wait --quiet --domain "$domain" --localhost-only >/dev/null
   kill "${ws[@]}" "$opt"; wait "${ws[@]}" "$opt" 2>/dev/null || true
   echo "$store"

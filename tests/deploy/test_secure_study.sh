@@ -67,6 +67,12 @@ expect_exit 1 "nobody to talk to" "$INJECT" "$DOMAIN" 1 w-secure
 [[ $(sql "$WORK/secure.db" "select count(*) from studies") == 1 ]] || fail "a study was created by someone"
 grep -q "injector\|impostor" "$WORK/optimizer-secure.log" && fail "the secure optimizer heard the injector"
 kill -0 "$SECURE_OPT" || fail "the secure optimizer died"
+# With $CPGMATCH_KEYSTORE exported, `study run` and the services it starts all join securely.
+write_study "$WORK/tiny.yaml" tiny 3 2
+CPGMATCH_KEYSTORE=$KS "$BIN/cpgmatch" study run --config "$WORK/tiny.yaml" --workers 1 --out "$WORK/run" --jitter 0 \
+  >/dev/null 2>"$WORK/study-run.log" || fail "study run with CPGMATCH_KEYSTORE: $(tail -n 3 "$WORK/study-run.log")"
+[[ $(sql "$WORK/run/study.db" "select count(*) from trials where status='done'") == 3 ]] || fail "secure study run: not 3 trials"
 echo "PASS DDS-Security: secure study of 24 done; no-certificate reader and injector hear nothing; viewer reads," \
-     "cannot submit; worker identity cannot write optimizer topics; expired and incomplete keystores exit 2." \
+     "cannot submit; worker identity cannot write optimizer topics; expired and incomplete keystores exit 2;" \
+     "study run with CPGMATCH_KEYSTORE works." \
      "Wall time of the same study (2 slots, 0.5+0.5 s rollouts): plain ${plain_s} s, secure ${secure_s} s"

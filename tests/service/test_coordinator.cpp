@@ -422,6 +422,39 @@ TEST_F(CoordinatorTest, AFinishedStudysTrialRecordsLeaveTheTopicAfterTheGraceAnd
   EXPECT_TRUE(finished_state_published);
 }
 
+TEST_F(CoordinatorTest, CandidatesCarryTheStoresIdentityAndReportsForAnotherStoreAreIgnored) {
+  // Study and trial ids are only unique within a store: a report carrying another store's id (another
+  // optimizer on the domain) is ignored, not counted against study 1 of this store.
+  const int id = submit(6, 6);
+  worker("a", 2);
+  coordinator_->tick(now_ += 0.1);
+  ASSERT_EQ(out_.candidates.size(), 2u);
+  const std::uint64_t mine = store_->store_id();
+  EXPECT_NE(mine, 0u);
+  for (const auto& c : out_.candidates) EXPECT_EQ(c.store_id(), mine);
+  msg::RolloutReport foreign = report_for(out_.candidates[0], 0.1);
+  foreign.store_id(mine ^ 0x5a5a5a5a5a5a5a5aull);
+  coordinator_->handle_report(foreign, now_);
+  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(coordinator_->foreign_reports(), 1u);
+  msg::RolloutReport own = report_for(out_.candidates[0], 0.2);
+  own.store_id(mine);
+  coordinator_->handle_report(own, now_);
+  ASSERT_EQ(out_.trials.size(), 1u);
+  EXPECT_DOUBLE_EQ(out_.trials[0].report().cost(), 0.2);
+  // The identity survives a restart; a new store gets another one.
+  open();
+  EXPECT_EQ(store_->store_id(), mine);
+  EXPECT_EQ(store_->load(id)->trials.size(), 2u);
+  const std::string other_path = path_ + "-other.db";
+  {
+    study::StudyStore other(other_path);
+    EXPECT_NE(other.store_id(), mine);
+    EXPECT_NE(other.store_id(), 0u);
+  }
+  for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(other_path + suffix);
+}
+
 TEST_F(CoordinatorTest, AStudyThatCannotBeReopenedIsMarkedFailedAndTheOthersAreServed) {
   const int good = submit(5, 5);
   const int bad = submit(5, 5);

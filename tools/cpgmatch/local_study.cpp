@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "child_process.hpp"
+#include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/command_objective.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/errors.hpp"
@@ -145,6 +146,11 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   std::signal(SIGINT, [](int) { g_interrupted = 1; });
   std::signal(SIGTERM, [](int) { g_interrupted = 1; });
 
+  // The children take $CPGMATCH_KEYSTORE (and Fast DDS's own variables) from the environment; this process
+  // must join them the same way, as the operator, or it would never hear its own optimizer.
+  runtime::DdsFlags env_only;
+  env_only.default_enclave = "operator";
+  runtime::apply_dds_flags(env_only);
   client::StudyClient client(domain, true, /*read_trials=*/true);
   const auto start = std::chrono::steady_clock::now();
   const client::CommandResult submitted = client.submit(opts.config_text, opts.config_source, 30.0);

@@ -91,7 +91,7 @@ class SimWorker {
   void accept(const msg::Candidate& c) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (draining_) return;  // the optimizer re-issues it once we have left
-    // Dropped only while the very same issue (study, trial, attempt) is queued or running: DDS may deliver
+    // Dropped only while the very same issue (store, study, trial, attempt) is queued or running: DDS may deliver
     // a sample twice. A re-issue (a higher attempt, e.g. after our report was lost) runs again, and so does
     // a trial of a fresh store that reuses ids we saw long ago. The optimizer counts each trial once anyway.
     if (!in_progress_.insert(issue_key(c)).second) return;
@@ -101,7 +101,7 @@ class SimWorker {
 
   void report_acknowledged(const msg::Candidate& key) {
     std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = kept_.find({key.study_id(), key.trial_id()});
+    const auto it = kept_.find({key.store_id(), key.study_id(), key.trial_id()});
     if (it == kept_.end()) return;
     reports_.unregister(it->second);
     kept_.erase(it);
@@ -123,7 +123,7 @@ class SimWorker {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!reports_.write(report)) spdlog::error("study {} trial {}: report write failed", c.study_id(), c.trial_id());
       in_progress_.erase(issue_key(c));
-      const ReportKey key{report.study_id(), report.trial_id()};
+      const ReportKey key{report.store_id(), report.study_id(), report.trial_id()};
       kept_[key] = report;
       kept_order_.push_back(key);
       if (kept_order_.size() > 2 * kReportsKept) {  // drop the acknowledged ones from the order
@@ -190,10 +190,12 @@ class SimWorker {
   std::mutex mutex_;
   std::condition_variable wake_;
   std::deque<msg::Candidate> queue_;
-  using IssueKey = std::tuple<std::uint32_t, std::uint32_t, std::uint32_t>;  // study, trial, attempt
-  static IssueKey issue_key(const msg::Candidate& c) { return {c.study_id(), c.trial_id(), c.attempt()}; }
+  using IssueKey = std::tuple<std::uint64_t, std::uint32_t, std::uint32_t, std::uint32_t>;  // store, study, trial, attempt
+  static IssueKey issue_key(const msg::Candidate& c) {
+    return {c.store_id(), c.study_id(), c.trial_id(), c.attempt()};
+  }
   std::set<IssueKey> in_progress_;  // queued or running: bounded by the slots and the queue
-  using ReportKey = std::pair<std::uint32_t, std::uint32_t>;  // study, trial: the report topic's key
+  using ReportKey = std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>;  // store, study, trial: the topic's key
   std::map<ReportKey, msg::RolloutReport> kept_;              // written, not yet acknowledged
   std::deque<ReportKey> kept_order_;                           // in writing order (may name acknowledged ones)
   int busy_ = 0;

@@ -19,6 +19,7 @@ namespace {
 
 msg::RolloutReport failed(const msg::Candidate& c, const SlotOptions& o, const std::string& why) {
   msg::RolloutReport r;
+  r.store_id(c.store_id());
   r.study_id(c.study_id());
   r.trial_id(c.trial_id());
   r.attempt(c.attempt());
@@ -108,6 +109,7 @@ msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions&
       return failed(c, o, fmt::format("unreadable rollout output: {}", e.what()));
     }
   }
+  r.store_id(c.store_id());
   r.study_id(c.study_id());
   r.trial_id(c.trial_id());
   r.attempt(c.attempt());

@@ -23,6 +23,13 @@ using eprosima::fastrtps::types::ReturnCode_t;
 
 namespace {
 
+// With DDS-Security the usual reason an endpoint cannot be created is the identity's permissions.
+std::string permission_hint() {
+  const std::string enclave = selected_enclave();
+  return enclave.empty() ? std::string()
+                         : fmt::format(" (DDS-Security: enclave '{}' is not permitted to; see its permissions.xml)", enclave);
+}
+
 fdds::TypeSupport type_support(TopicId id) {
   switch (id) {
     case TopicId::kCandidates: return fdds::TypeSupport(new msg::CandidatePubSubType());
@@ -144,7 +151,9 @@ namespace detail {
 fdds::DataWriter* create_writer(Participant& p, TopicId id, fdds::DataWriterListener* listener) {
   fdds::DataWriter* w = p.publisher()->create_datawriter(p.topic(id), writer_qos(id), listener,
                                                          fdds::StatusMask::publication_matched());
-  if (w == nullptr) throw std::runtime_error(fmt::format("DDS: cannot create a writer on {}", topic_info(id).name));
+  if (w == nullptr) {
+    throw std::runtime_error(fmt::format("DDS: cannot create a writer on {}{}", topic_info(id).name, permission_hint()));
+  }
   return w;
 }
 
@@ -152,7 +161,9 @@ fdds::DataReader* create_reader(Participant& p, fdds::TopicDescription* topic, T
                                 fdds::DataReaderListener* listener) {
   fdds::DataReader* r = p.subscriber()->create_datareader(
       topic, reader_qos(id), listener, fdds::StatusMask::data_available() << fdds::StatusMask::subscription_matched());
-  if (r == nullptr) throw std::runtime_error(fmt::format("DDS: cannot create a reader on {}", topic_info(id).name));
+  if (r == nullptr) {
+    throw std::runtime_error(fmt::format("DDS: cannot create a reader on {}{}", topic_info(id).name, permission_hint()));
+  }
   return r;
 }
 

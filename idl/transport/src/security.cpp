@@ -63,6 +63,8 @@ void select_security(const SecuritySelection& selection) {
   g_selected = selection;
 }
 
+std::string selected_enclave() { return g_selected.keystore.empty() ? std::string() : g_selected.enclave; }
+
 void apply_security(eprosima::fastdds::dds::DomainParticipantQos& qos) {
   if (g_selected.keystore.empty()) return;
   const fs::path dir = g_selected.keystore / "enclaves" / g_selected.enclave;

@@ -352,6 +352,7 @@ void Coordinator::drop_worker(const std::string& worker_id, const std::string& w
 
 msg::Candidate Coordinator::make_candidate(const Study& study, int trial_id, const InFlight& f) const {
   msg::Candidate c;
+  c.store_id(store_.store_id());
   c.study_id(static_cast<std::uint32_t>(study.id));
   c.trial_id(static_cast<std::uint32_t>(trial_id));
   c.attempt(static_cast<std::uint32_t>(f.attempt));
@@ -635,6 +636,17 @@ int Coordinator::apply_model_results() { return models_.run_finished(); }
 void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
   const std::string what = fmt::format("report for study {} trial {} from {}", r.study_id(), r.trial_id(),
                                        r.worker_id().to_string());
+  if (r.store_id() != 0 && r.store_id() != store_.store_id()) {
+    // Another store's candidate (a second optimizer on this domain, or one that ran before on the same
+    // workers): its study and trial ids mean nothing here. Not a malformed sample; said once per store.
+    if (foreign_stores_.insert(r.store_id()).second) {
+      warn_(fmt::format("ignoring reports for another store (store_id {:016x}; this one is {:016x}): another "
+                        "optimizer on this domain?",
+                        r.store_id(), store_.store_id()));
+    }
+    ++foreign_reports_;
+    return;
+  }
   if (auto why = dds::check_report(r)) return reject(what, *why);
   Study* s = find_study(static_cast<int>(r.study_id()));
   if (s == nullptr) return reject(what, "unknown study");

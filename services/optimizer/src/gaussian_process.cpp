@@ -67,7 +67,22 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   const GpHyperparameters h = GpHyperparameters::unpack(theta);
   const int n = static_cast<int>(X_.rows());
   const int d = static_cast<int>(X_.cols());
-  const Eigen::MatrixXd Kf = kernel(X_, X_, h);
+  const double amp = std::exp(h.log_amplitude);
+  const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
+  const Eigen::MatrixXd Xs = X_ * inv_l.matrix().asDiagonal();
+  // Scaled distances r and exp(-sqrt5 r), once per pair: the kernel and every length-scale gradient use
+  // them (this function is most of a hyperparameter fit, and exp most of its kernel work).
+  Eigen::MatrixXd R(n, n), E(n, n);
+  for (int b = 0; b < n; ++b) {
+    R(b, b) = 0.0;
+    E(b, b) = 1.0;
+    for (int a = b + 1; a < n; ++a) {
+      const double r = (Xs.row(a) - Xs.row(b)).norm();
+      R(a, b) = R(b, a) = r;
+      E(a, b) = E(b, a) = std::exp(-kSqrt5 * r);
+    }
+  }
+  const Eigen::MatrixXd Kf = amp * ((1.0 + kSqrt5 * R.array() + 5.0 / 3.0 * R.array().square()) * E.array()).matrix();
   Eigen::MatrixXd K = Kf;
   const double noise = std::exp(h.log_noise);
   K.diagonal().array() += noise;
@@ -88,33 +103,28 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   const double lml = -0.5 * y_std_.dot(alpha) - 0.5 * log_det - 0.5 * n * std::log(2.0 * std::numbers::pi);
   if (grad) {
     grad->resize(theta.size());
-    // dLML/dtheta_j = 0.5 * sum(W .* dK/dtheta_j), W = alpha alpha^T - K^-1.
-    const Eigen::MatrixXd Kinv = llt.solve(Eigen::MatrixXd::Identity(n, n));
+    // dLML/dtheta_j = 0.5 * sum(W .* dK/dtheta_j), W = alpha alpha^T - K^-1, with K^-1 = L^-T L^-1: one
+    // triangular solve and a symmetric product instead of two full solves against the identity.
+    Eigen::MatrixXd Linv = Eigen::MatrixXd::Identity(n, n);
+    llt.matrixL().solveInPlace(Linv);
+    Eigen::MatrixXd Kinv = Eigen::MatrixXd::Zero(n, n);
+    Kinv.selfadjointView<Eigen::Lower>().rankUpdate(Linv.transpose());
+    Kinv.triangularView<Eigen::StrictlyUpper>() = Kinv.transpose();
     const Eigen::MatrixXd W = alpha * alpha.transpose() - Kinv;
     (*grad)[0] = 0.5 * (W.array() * Kf.array()).sum();
     (*grad)[d + 1] = 0.5 * noise * W.trace();
     // For Matern 5/2: dk/dlog(l_j) = amp * 5/3 (1 + sqrt5 r) exp(-sqrt5 r) * (x_j - x'_j)^2 / l_j^2.
-    const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
-    const Eigen::MatrixXd Xs = X_ * inv_l.matrix().asDiagonal();
-    const double amp = std::exp(h.log_amplitude);
-    Eigen::MatrixXd common(n, n);
-    for (int a = 0; a < n; ++a) {
-      for (int b = a; b < n; ++b) {
-        const double r = (Xs.row(a) - Xs.row(b)).norm();
-        const double v = amp * 5.0 / 3.0 * (1.0 + kSqrt5 * r) * std::exp(-kSqrt5 * r) * W(a, b);
-        common(a, b) = v;
-        common(b, a) = v;
-      }
-    }
+    const Eigen::MatrixXd common =
+        (amp * 5.0 / 3.0 * (1.0 + kSqrt5 * R.array()) * E.array() * W.array()).matrix();
     for (int j = 0; j < d; ++j) {
       double s = 0.0;
-      for (int a = 0; a < n; ++a) {
-        for (int b = a + 1; b < n; ++b) {
+      for (int b = 0; b < n; ++b) {
+        for (int a = b + 1; a < n; ++a) {
           const double diff = Xs(a, j) - Xs(b, j);
           s += common(a, b) * diff * diff;
         }
       }
-      (*grad)[1 + j] = s;  // 0.5 * 2 * (upper triangle); the diagonal has zero distance
+      (*grad)[1 + j] = s;  // 0.5 * 2 * (lower triangle); the diagonal has zero distance
     }
   }
   return lml;

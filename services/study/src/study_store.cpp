@@ -6,6 +6,7 @@
 #include <sqlite3.h>
 
 #include <cstring>
+#include <random>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -132,6 +133,12 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
     exec(R"(CREATE TABLE IF NOT EXISTS model_states(
              study_id INTEGER PRIMARY KEY REFERENCES studies(study_id),
              state_json TEXT NOT NULL))");
+    try {
+      exec("CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value TEXT NOT NULL)");
+      store_id_ = read_or_make_store_id();
+    } catch (const StoreWriteError&) {
+      store_id_ = 0;  // an older store opened read-only (analyze): readers need no id
+    }
   } catch (const StoreWriteError&) {
     sqlite3_close(db_);
     db_ = nullptr;
@@ -144,6 +151,21 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
 }
 
 StudyStore::~StudyStore() { sqlite3_close(db_); }
+
+std::uint64_t StudyStore::read_or_make_store_id() {
+  {
+    Statement read(db_, "SELECT value FROM meta WHERE key = 'store_id'");
+    if (read.step()) return std::stoull(read.column_text(0));
+  }
+  // A new store (or one older than store ids). Random, not derived from the path or the time: two stores
+  // made at the same moment, or a store deleted and made again at the same path, still differ.
+  std::random_device entropy;
+  std::uint64_t id = 0;
+  while (id == 0) id = (static_cast<std::uint64_t>(entropy()) << 32) ^ entropy();
+  Statement write(db_, "INSERT INTO meta(key, value) VALUES('store_id', ?)");
+  write.bind(1, std::to_string(id)).run();  // read-only: StoreWriteError, see the constructor
+  return id;
+}
 
 void StudyStore::add_column_if_missing(const std::string& table, const std::string& column,
                                        const std::string& declaration) {

@@ -20,6 +20,9 @@ struct SecuritySelection {
 // expired (InputError naming the file), then uses it for every participant of this process.
 void select_security(const SecuritySelection& selection);
 
+// The selected enclave's name, empty without security (for error messages).
+std::string selected_enclave();
+
 // Adds the security plugin properties of the selected enclave, if any.
 void apply_security(eprosima::fastdds::dds::DomainParticipantQos& qos);
 

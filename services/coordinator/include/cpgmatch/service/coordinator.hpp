@@ -110,6 +110,7 @@ class Coordinator {
   int studies() const { return static_cast<int>(studies_.size()); }
   bool idle() const;  // no running study has work left
   std::uint64_t rejected_samples() const { return rejected_; }
+  std::uint64_t foreign_reports() const { return foreign_reports_; }  // for another store: ignored
 
  private:
   struct InFlight {
@@ -237,6 +238,8 @@ class Coordinator {
   std::deque<std::pair<std::string, std::uint64_t>> reply_order_;
   int round_robin_ = 0;
   std::uint64_t rejected_ = 0;
+  std::uint64_t foreign_reports_ = 0;
+  std::set<std::uint64_t> foreign_stores_;  // store ids whose reports were ignored (logged once each)
   ModelPool models_;  // last member: destroyed first, so no job outlives what it refers to
 };
 

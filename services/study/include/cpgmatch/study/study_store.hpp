@@ -7,6 +7,7 @@
 // failure the service is built for); `Durability::kFull` also survives power loss, at an fsync per commit.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -92,12 +93,18 @@ class StudyStore {
   std::vector<StoredStudy> load_all() const;
   std::optional<StoredStudy> load(int study_id) const;
   const std::string& path() const { return path_; }
+  // The store's random 64-bit identity, made when the store is created (or first opened by a cpgmatch
+  // that knows it) and never changed: candidates and reports carry it, so ids from different stores never
+  // meet. 0 only for a read-only store that has none yet (readers do not need it).
+  std::uint64_t store_id() const { return store_id_; }
 
  private:
   void exec(const std::string& sql) const;
   void add_column_if_missing(const std::string& table, const std::string& column, const std::string& declaration);
+  std::uint64_t read_or_make_store_id();
   std::string path_;
   sqlite3* db_ = nullptr;
+  std::uint64_t store_id_ = 0;
 };
 
 std::string to_string(TrialStatus s);
