@@ -6,6 +6,7 @@ source "$(dirname "$0")/robot_lib.sh"
 relaxed_robot_yaml "$WORK/robot.yaml"
 PORT=$(free_udp_port)
 write_study "$WORK/s.yaml" hardware-only 3 3
+echo "explore_on: hardware" >>"$WORK/s.yaml"  # exploration goes to simulation workers by default
 start_emulator "udp:127.0.0.1:$PORT" --lockstep
 start_optimizer "$WORK/s.db"
 "$BIN/cpgmatch-robot-agent" --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \

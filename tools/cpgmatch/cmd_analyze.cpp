@@ -33,7 +33,7 @@ void add_analyze_command(CLI::App& app) {
     if (opts->json) {
       std::cout << a.json.dump() << std::endl;
     } else {
-      fmt::print("{}", analysis::format_table(a.report));
+      fmt::print("{}{}", analysis::format_table(a.report), a.sim2real_text);
     }
   });
 }

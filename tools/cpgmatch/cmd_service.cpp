@@ -111,7 +111,9 @@ std::string progress_line(const json& s) {
   const std::string eta = rate > 0 ? fmt::format("{:.0f}s", (budget - done) / rate) : std::string("-");
   return fmt::format("study {} [{}{}] {:>4}/{} best {:<9} {:6.2f} rollouts/s  eta {:>5}  workers {}  {}",
                      s["study_id"].get<int>(), std::string(filled, '#'), std::string(width - filled, '.'), done, budget,
-                     num(s["best_cost"]), rate, eta, s["workers"].get<int>(), s["state"].get<std::string>());
+                     num(s["best_cost"]), rate, eta, s["workers"].get<int>(), s["state"].get<std::string>()) +
+         // A mixed study whose validation waits for a robot says so (see docs/dds.md, StudyState.message).
+         (s.value("message", "").rfind("waiting_for_hardware", 0) == 0 ? "  (waiting for a hardware worker)" : "");
 }
 
 void add_study_service_commands(CLI::App* study) {

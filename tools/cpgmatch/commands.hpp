@@ -24,6 +24,8 @@ void add_service_commands(CLI::App& app);
 void add_analyze_command(CLI::App& app);
 void add_plot_command(CLI::App& app);
 void add_reproduce_command(CLI::App& app);
+// Simulation versus hardware rollouts of a stored (mixed) study.
+void add_sim2real_command(CLI::App& app);
 
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,

@@ -101,6 +101,13 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   LocalStudyResult result;
   const study::StudyConfig cfg = study::load_study_config_text(opts.config_text, opts.config_source);
   result.config = cfg;
+  // A local study starts simulation workers only on a private domain: work meant for a robot would wait
+  // for ever. Mixed and hardware-only studies go to a service with an agent (`study submit`).
+  if (cfg.validation.enabled || cfg.explore_on == study::WorkerKindWanted::kHardware) {
+    throw InputError(fmt::format("{}: {}: `study run` has simulation workers only; submit this study to an "
+                                 "optimizer service with a robot agent on its domain (`cpgmatch study submit`)",
+                                 opts.config_source, cfg.validation.enabled ? "validation" : "explore_on"));
+  }
   if (opts.workers < 0) throw InputError("--workers must be >= 1");
   const int workers = opts.workers > 0 ? opts.workers : std::max(1u, std::thread::hardware_concurrency());
   result.workers = workers;

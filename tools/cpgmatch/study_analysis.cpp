@@ -8,6 +8,7 @@
 
 #include "cpgmatch/analysis/gnuplot.hpp"
 #include "cpgmatch/analysis/plots.hpp"
+#include "cpgmatch/analysis/sim2real.hpp"
 #include "cpgmatch/analysis/stored_study_trials.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 
@@ -48,7 +49,8 @@ analysis::RolloutEvaluator sim_evaluator(const study::StudyConfig& cfg) {
 StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_draws, bool quiet) {
   StudyAnalysis a;
   a.config = study::load_study_config_text(stored.config_yaml, stored.source_name);
-  a.trials = analysis::trials_from_stored_study(stored);
+  const analysis::StudyTrials all = analysis::trials_from_stored_study(stored);
+  a.trials = analysis::exploration_trials(all);  // a mixed study's hardware sets are reported apart
   a.report = analysis::science_report(a.trials);
   if (jitter_draws > 0 && a.report.best_rollout > 0) {
     analysis::JitterOptions o;
@@ -69,6 +71,13 @@ StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_
     if (!quiet && tty) fmt::print(stderr, "\n");
   }
   a.json = analysis::to_json(a.report);
+  const analysis::Sim2RealTable table = analysis::sim2real_table(all);
+  a.has_hardware = table.hw_rollouts > 0;
+  if (a.has_hardware) {
+    a.json["sim2real"] = analysis::sim2real_json(table);
+    a.sim2real_text = fmt::format("\n{}", analysis::sim2real_text(table));
+    a.all_trials = all;
+  }
   return a;
 }
 
@@ -79,6 +88,14 @@ bool write_study_figures(const fs::path& dir, const StudyAnalysis& a, bool trace
   } catch (const std::exception& e) {
     fmt::print(stderr, "figures: {}\n", e.what());
     ok = false;
+  }
+  if (a.has_hardware) {
+    try {
+      analysis::plot_sim2real(a.all_trials, dir);
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "sim2real figure: {}\n", e.what());
+      ok = false;
+    }
   }
   if (!trace_best || a.report.best_rollout <= 0) return ok;
   try {

@@ -23,7 +23,11 @@ struct StudyAnalysis {
   study::StudyConfig config;
   analysis::StudyTrials trials;
   analysis::ScienceReport report;
-  nlohmann::json json;  // to_json(report)
+  nlohmann::json json;  // to_json(report), with "sim2real" when hardware rollouts exist
+  // The simulation-versus-hardware section of the report (empty without hardware rollouts).
+  std::string sim2real_text;
+  bool has_hardware = false;
+  analysis::StudyTrials all_trials;  // with the hardware rollouts (set only when there are some)
 };
 
 // The science report of a stored study; with jitter_draws > 0 the best point is re-run that many

@@ -17,6 +17,7 @@ Trial trial_from_report(int trial_id, const nlohmann::json& report, std::map<std
   t.trial_id = trial_id;
   t.params = std::move(params);
   t.ok = report.is_object() && report.value("ok", false);
+  t.hardware = report.is_object() && report.value("worker_kind", std::string()) == "hardware";
   if (!t.ok) return t;
   t.fell = report.value("fell", false);
   t.cost = number(report, "cost");

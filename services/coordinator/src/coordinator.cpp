@@ -12,6 +12,7 @@
 #include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/json.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/service/validation_sets.hpp"
 
 namespace cpgmatch::service {
 
@@ -124,15 +125,20 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
   const int id = fresh.id;
   auto [it, inserted] = studies_.emplace(id, std::move(fresh));
   Study& s = it->second;
-  std::vector<const study::StoredTrial*> done;
+  std::vector<const study::StoredTrial*> done, validated;
   if (stored != nullptr) {
     for (const auto& t : stored->trials) {
       s.next_trial_id = std::max(s.next_trial_id, t.trial_id + 1);
+      const bool validation = t.phase == "validation";
+      if (validation) s.validation_started = true;
       if (t.status == study::TrialStatus::kDone) {
-        done.push_back(&t);
+        (validation ? validated : done).push_back(&t);
       } else {
-        // Re-issued once a slot is free; the worker it last went to may still report that attempt.
-        s.in_flight[t.trial_id] = InFlight{t.x, t.attempt, "", 0.0, {{t.attempt, t.worker_id}}};
+        // Re-issued once a slot is free; the worker it last went to may still report that attempt. A
+        // validation set stored but never issued has no worker yet: it is issued, not re-issued.
+        InFlight f{t.x, t.attempt, "", 0.0, {}, validation};
+        if (!t.worker_id.empty()) f.issued_to[t.attempt] = t.worker_id;
+        s.in_flight[t.trial_id] = std::move(f);
       }
     }
   }
@@ -162,6 +168,19 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     account_report(s, trial_id, t->x, report);  // the optimizer already holds it: counters and best only
     // A finished study's records are served from the store (analyze, plot), not kept on the topic.
     if (is_open(s)) out_.publish_trial(make_trial_record(s, trial_id, t->x, report));
+  }
+  std::sort(validated.begin(), validated.end(),
+            [](const study::StoredTrial* a, const study::StoredTrial* b) { return a->trial_id < b->trial_id; });
+  for (const auto* t : validated) {
+    msg::RolloutReport report;
+    try {
+      report = dds::report_from_json(t->report);
+    } catch (const std::exception& e) {
+      report.ok(false);
+      report.error("stored report unreadable");
+    }
+    account_validation(s, t->trial_id, report);
+    if (is_open(s)) out_.publish_trial(make_trial_record(s, t->trial_id, t->x, report));
   }
   s.records_retired = !is_open(s);
   if (s.records_retired && s.in_flight.empty()) s.optimizer.reset();  // s.model keeps the recommendation
@@ -293,6 +312,7 @@ void Coordinator::handle_worker(const msg::WorkerAnnouncement& w, double now_s) 
   worker.id = id;
   worker.key = w.worker_key();
   worker.slots = static_cast<int>(w.slots());
+  worker.hardware = w.kind() == msg::WORKER_HARDWARE;
   worker.accepting = w.accepting();
   worker.last_seen_s = now_s;
   if (is_new) {
@@ -358,6 +378,10 @@ void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s
   if (reissue) {
     ++f.attempt;
     store_.reissue(study.id, trial_id, f.attempt, worker.id, wall_now());
+  } else if (f.validation) {
+    // Stored without a worker at the phase's start: record who has it, so a restart after this point
+    // still accepts that worker's report.
+    store_.reissue(study.id, trial_id, f.attempt, worker.id, wall_now());
   }
   f.worker_id = worker.id;
   f.issued_to[f.attempt] = worker.id;
@@ -367,11 +391,11 @@ void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s
   study.dirty = true;
 }
 
-std::vector<Coordinator::Worker*> Coordinator::free_slots() {
+std::vector<Coordinator::Worker*> Coordinator::free_slots(bool hardware) {
   std::vector<Worker*> ready;
   std::map<Worker*, int> free;
   for (auto& [id, w] : workers_) {
-    if (w.accepting && static_cast<int>(w.assigned.size()) < w.slots) {
+    if (w.hardware == hardware && w.accepting && static_cast<int>(w.assigned.size()) < w.slots) {
       ready.push_back(&w);
       free[&w] = w.slots - static_cast<int>(w.assigned.size());
     }
@@ -399,19 +423,108 @@ std::vector<Coordinator::Study*> Coordinator::round_robin_order() {
   return order;
 }
 
-int Coordinator::issue_waiting_work(const std::vector<Study*>& order, double now_s) {
-  std::vector<Worker*> slots = free_slots();
-  std::size_t next_slot = 0;
+Coordinator::FreeSlots Coordinator::issue_waiting_work(const std::vector<Study*>& order, double now_s) {
+  struct Slots {
+    std::vector<Worker*> slots;
+    std::size_t next = 0;
+    int free() const { return static_cast<int>(slots.size() - next); }
+  };
+  Slots sim{free_slots(false)}, hw{free_slots(true)};
   for (Study* s : order) {
     if (s->state != "running") continue;
-    // Re-issues first: they are the oldest work.
+    Slots& explore = explores_on_hardware(*s) ? hw : sim;
+    // Re-issues (and stored validation sets) first: they are the oldest work.
     for (auto& [trial_id, f] : s->in_flight) {
-      if (next_slot == slots.size()) return 0;
-      if (f.worker_id.empty()) issue(*s, trial_id, *slots[next_slot++], now_s, true);
+      if (!f.worker_id.empty()) continue;
+      Slots& kind = f.validation ? hw : explore;
+      if (kind.free() == 0) continue;
+      issue(*s, trial_id, *kind.slots[kind.next++], now_s, !f.issued_to.empty());
     }
-    issue_proposed(*s, slots, next_slot, now_s);
+    issue_proposed(*s, explore.slots, explore.next, now_s);
   }
-  return static_cast<int>(slots.size() - next_slot);
+  return {sim.free(), hw.free()};
+}
+
+int Coordinator::exploring_in_flight(const Study& s) {
+  return static_cast<int>(std::count_if(s.in_flight.begin(), s.in_flight.end(),
+                                        [](const auto& kv) { return !kv.second.validation; }));
+}
+
+bool Coordinator::has_hardware_worker() const {
+  return std::any_of(workers_.begin(), workers_.end(), [](const auto& kv) { return kv.second.hardware; });
+}
+
+bool Coordinator::start_validation_if_due(Study& s) {
+  if (s.state != "running" || !s.config.validation.enabled || s.validation_started) return false;
+  // The answer is final only once every exploration report is in and told to the model.
+  if (s.completed < s.config.budget || !s.in_flight.empty() || !s.proposed.empty() || !s.untold.empty() ||
+      s.model_busy) {
+    return false;
+  }
+  // The answer: the lowest GP posterior mean over the observations (what StudyState recommends); the
+  // best observed point when the model holds none (every rollout failed but one, say).
+  Eigen::VectorXd centre;
+  if (s.model.has_recommendation && s.model.recommended_x.size() == s.config.space.size()) {
+    centre = s.model.recommended_x;
+  } else if (s.best_x.size() == s.config.space.size()) {
+    centre = s.best_x;
+  } else {
+    s.state = "failed";
+    s.message = "validation: no successful exploration rollout to validate around";
+    store_.set_state(s.id, s.state, s.message);
+    warn_(fmt::format("study {} failed: {}", s.id, s.message));
+    s.dirty = true;
+    return false;
+  }
+  const auto& v = s.config.validation;
+  std::vector<study::StoredTrial> stored;
+  for (auto& x : validation_sets(s.config.space, centre, v.hardware_sets, v.spread, s.config.optimizer.seed)) {
+    study::StoredTrial t;
+    t.trial_id = s.next_trial_id++;
+    t.x = std::move(x);
+    t.issued_at_s = wall_now();
+    t.phase = "validation";
+    stored.push_back(std::move(t));
+  }
+  store_.add_trials(s.id, stored);  // all sets at once: a restart issues exactly these
+  for (const auto& t : stored) s.in_flight[t.trial_id] = InFlight{t.x, 0, "", 0.0, {}, true};
+  s.validation_started = true;
+  s.dirty = true;
+  info_(fmt::format("study {} '{}': exploration done, {} validation sets (spread +-{:.0f}%) for hardware workers",
+                    s.id, s.name, v.hardware_sets, 100.0 * v.spread));
+  return true;
+}
+
+void Coordinator::note_hardware_wait(Study& s) {
+  bool waits = false;
+  if (s.state == "running" && !has_hardware_worker()) {
+    for (const auto& [trial_id, f] : s.in_flight) waits |= f.worker_id.empty() && (f.validation || explores_on_hardware(s));
+    waits |= explores_on_hardware(s) && s.completed < s.config.budget;
+  }
+  if (waits == s.waiting_for_hardware) return;
+  s.waiting_for_hardware = waits;
+  if (s.state != "running") return;  // its message is the final one now
+  // A transient condition: in the published state only, never in the store (a restart re-derives it).
+  s.message = waits ? fmt::format("waiting_for_hardware: {} needs a hardware worker; none on the domain",
+                                  s.validation_started ? fmt::format("validation ({}/{} sets run)", s.validated,
+                                                                     s.config.validation.hardware_sets)
+                                                       : std::string("the exploration"))
+                    : std::string();
+  if (waits) info_(fmt::format("study {}: {}", s.id, s.message));
+  s.dirty = true;
+}
+
+void Coordinator::account_validation(Study& s, int trial_id, const msg::RolloutReport& r) {
+  ++s.validated;
+  s.validation_trials.push_back(trial_id);
+  s.dirty = true;
+  if (!r.ok()) {
+    ++s.failed;
+    ++s.consecutive_failures;
+    return;
+  }
+  s.consecutive_failures = 0;
+  if (r.fell()) ++s.falls;
 }
 
 void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::size_t& next_slot, double now_s) {
@@ -433,21 +546,23 @@ void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::siz
   }
 }
 
-void Coordinator::start_model_jobs(const std::vector<Study*>& order, int free_slots) {
-  // Slots that a job already running will fill are not asked for twice.
-  int wanted = free_slots;
-  for (const auto& [id, s] : studies_) wanted -= s.asking;
+void Coordinator::start_model_jobs(const std::vector<Study*>& order, FreeSlots free) {
+  // Slots that a job already running will fill are not asked for twice; each study asks only for slots
+  // of the kind its exploration runs on.
+  int wanted[2] = {free.simulation, free.hardware};
+  for (const auto& [id, s] : studies_) wanted[explores_on_hardware(s)] -= s.asking;
   int new_budget = options_.max_new_candidates_per_tick;  // points asked for this tick, over all studies
   for (Study* s : order) {
     if (s->model_busy || !s->optimizer) continue;
     int n = 0;
+    int& wanted_here = wanted[explores_on_hardware(*s)];
     if (s->state == "running") {
-      const int remaining = s->config.budget - s->completed - static_cast<int>(s->in_flight.size()) -
+      const int remaining = s->config.budget - s->completed - exploring_in_flight(*s) -
                             static_cast<int>(s->proposed.size());
-      n = std::max(0, std::min({remaining, wanted, new_budget}));
+      n = std::max(0, std::min({remaining, wanted_here, new_budget}));
     }
     if (n == 0 && s->untold.empty()) continue;
-    wanted -= n;
+    wanted_here -= n;
     new_budget -= n;
     start_model_job(*s, n);
   }
@@ -461,7 +576,8 @@ Coordinator::ModelSnapshot Coordinator::snapshot_of(const bo::BayesianOptimizer&
     m.has_recommendation = true;
     m.recommended_trial = told_trials.at(rec->observation);
     m.recommended_predicted_cost = rec->predicted;
-    m.recommended_params = optimizer.space().to_named(optimizer.observations()[rec->observation].x);
+    m.recommended_x = optimizer.observations()[rec->observation].x;
+    m.recommended_params = optimizer.space().to_named(m.recommended_x);
   }
   return m;
 }
@@ -552,6 +668,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
                                     to == it->second.issued_to.end() ? std::string("no worker") : to->second));
   }
   const Eigen::VectorXd x = it->second.x;
+  const bool validation = it->second.validation;
   if (!store_.complete_trial(s->id, trial_id, r.ok(), r.ok() ? r.cost() : 0.0, dds::to_json(r), wall_now())) {
     info_(fmt::format("ignored a duplicate {} (already in the store)", what));
     return;
@@ -559,7 +676,11 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
   if (auto w = workers_.find(it->second.worker_id); w != workers_.end()) w->second.assigned.erase({s->id, trial_id});
   msg::Candidate retired = make_candidate(*s, trial_id, it->second);
   s->in_flight.erase(it);
-  count_report(*s, trial_id, x, r);
+  if (validation) {
+    account_validation(*s, trial_id, r);
+  } else {
+    count_report(*s, trial_id, x, r);
+  }
   out_.retire_candidate(retired);
   if (!s->records_retired) out_.publish_trial(make_trial_record(*s, trial_id, x, r));  // else: the store has it
   if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id().to_string(), r.error().to_string()));
@@ -593,6 +714,7 @@ void Coordinator::account_report(Study& s, int trial_id, const Eigen::VectorXd& 
     s.best_cost = r.cost();
     s.best_trial = trial_id;
     s.best_params = s.config.space.to_named(x);
+    s.best_x = x;
     s.best_normalized_torque = r.normalized_torque();
     s.best_speed_mps = r.mean_speed_mps();
   }
@@ -600,8 +722,11 @@ void Coordinator::account_report(Study& s, int trial_id, const Eigen::VectorXd& 
 
 void Coordinator::finish_if_complete(Study& s) {
   if (s.state != "running" || s.completed < s.config.budget) return;
+  const auto& v = s.config.validation;
+  if (v.enabled && (!s.validation_started || s.validated < v.hardware_sets)) return;  // the hardware phase
   s.state = "done";
   s.message = fmt::format("{} rollouts, best cost {:.4g} (trial {})", s.completed, s.best_cost, s.best_trial);
+  if (v.enabled) s.message += fmt::format("; {} validation sets run on hardware", s.validated);
   store_.set_state(s.id, s.state, s.message);
   info_(fmt::format("study {} '{}' done: {}", s.id, s.name, s.message));
   s.dirty = true;
@@ -628,8 +753,10 @@ void Coordinator::publish_state(Study& s, double now_s) {
   st.study_id(static_cast<std::uint32_t>(s.id));
   st.name(s.name);
   st.state(status_of(s.state));
-  st.budget(static_cast<std::uint32_t>(s.config.budget));
-  st.completed(static_cast<std::uint32_t>(s.completed));
+  // Both phases count: budget = exploration budget + validation sets, completed = reports of either.
+  const int sets = s.config.validation.enabled ? s.config.validation.hardware_sets : 0;
+  st.budget(static_cast<std::uint32_t>(s.config.budget + sets));
+  st.completed(static_cast<std::uint32_t>(s.completed + s.validated));
   st.in_flight(static_cast<std::uint32_t>(s.in_flight.size()));
   st.failed(static_cast<std::uint32_t>(s.failed));
   st.falls(static_cast<std::uint32_t>(s.falls));
@@ -659,7 +786,9 @@ void Coordinator::retire_finished(Study& s, double now_s) {
   if (is_open(s) || s.records_retired) return;
   if (s.records_leave_at_s < 0.0) s.records_leave_at_s = now_s + options_.finished_records_grace_s;
   if (now_s < s.records_leave_at_s || s.model_busy || !s.untold.empty()) return;
-  for (const int trial_id : s.told_trials) {
+  std::vector<int> records = s.told_trials;
+  records.insert(records.end(), s.validation_trials.begin(), s.validation_trials.end());
+  for (const int trial_id : records) {
     msg::TrialRecord key;
     key.study_id(static_cast<std::uint32_t>(s.id));
     key.trial_id(static_cast<std::uint32_t>(trial_id));
@@ -689,6 +818,13 @@ void Coordinator::tick(double now_s) {
   start_model_jobs(order, issue_waiting_work(order, now_s));
   // Without model threads the jobs just started have finished already: issue their points now.
   if (apply_model_results() > 0) issue_waiting_work(order, now_s);
+  bool validation_started = false;
+  for (Study* s : order) validation_started |= start_validation_if_due(*s);
+  if (validation_started) issue_waiting_work(order, now_s);
+  for (Study* s : order) {
+    finish_if_complete(*s);
+    note_hardware_wait(*s);
+  }
   for (auto& [sid, s] : studies_) {
     retire_finished(s, now_s);
     const auto last = last_state_publish_.find(sid);

@@ -33,7 +33,7 @@ constexpr double kMaxRolloutPartS = 3600.0;  // entrainment or evaluation, secon
 
 StudyConfig parse(const YamlReader& r) {
   r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
-                         "rollout", "terrain", "parameters", "fixed", "lease_s"});
+                         "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation"});
   StudyConfig s;
   // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");
@@ -61,6 +61,21 @@ StudyConfig parse(const YamlReader& r) {
     s.eval_s = ro.get_double_in("eval_s", s.eval_s, 0.01, kMaxRolloutPartS);
   }
   s.lease_s = r.get_double_in("lease_s", 0.0, 0.0, 86400.0);  // 0: derived from the rollout length
+  const std::string explore_on = r.get_string("explore_on", "simulation");
+  if (explore_on == "hardware") {
+    s.explore_on = WorkerKindWanted::kHardware;
+  } else if (explore_on != "simulation") {
+    r.fail("explore_on", fmt::format("'{}' is not a worker kind (simulation | hardware)", explore_on));
+  }
+  if (r.has("validation")) {
+    const YamlReader v = r.child("validation");
+    v.reject_unknown_keys({"hardware_sets", "spread"});
+    s.validation.enabled = true;
+    // More sets than this is no longer a validation but a second study on the robot.
+    s.validation.hardware_sets = v.get_int_in("hardware_sets", s.validation.hardware_sets, 1, 1000);
+    // A relative spread of 1 already reaches zero; beyond it a parameter could change sign.
+    s.validation.spread = v.get_double_in("spread", s.validation.spread, 0.0, 1.0);
+  }
   s.terrain = r.get_string("terrain", s.terrain);
   try {
     (void)sim::TerrainSpec::parse(s.terrain);

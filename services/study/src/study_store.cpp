@@ -129,6 +129,7 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
              ok INTEGER NOT NULL DEFAULT 0, cost REAL NOT NULL DEFAULT 0, report_json TEXT NOT NULL DEFAULT 'null',
              PRIMARY KEY(study_id, trial_id)))");
     add_column_if_missing("trials", "report_seq", "INTEGER NOT NULL DEFAULT 0");
+    add_column_if_missing("trials", "phase", "TEXT NOT NULL DEFAULT 'exploration'");
     exec(R"(CREATE TABLE IF NOT EXISTS model_states(
              study_id INTEGER PRIMARY KEY REFERENCES studies(study_id),
              state_json TEXT NOT NULL))");
@@ -203,11 +204,11 @@ void StudyStore::set_state(int study_id, const std::string& state, const std::st
 void StudyStore::add_trials(int study_id, const std::vector<StoredTrial>& trials) {
   exec("BEGIN IMMEDIATE");
   try {
-    Statement s(db_, R"(INSERT INTO trials(study_id, trial_id, x_json, status, attempt, worker_id, issued_at)
-                        VALUES(?, ?, ?, 'in_flight', ?, ?, ?))");
+    Statement s(db_, R"(INSERT INTO trials(study_id, trial_id, x_json, status, attempt, worker_id, issued_at, phase)
+                        VALUES(?, ?, ?, 'in_flight', ?, ?, ?, ?))");
     for (const auto& t : trials) {
       s.bind(1, study_id).bind(2, t.trial_id).bind(3, vector_json(t.x).dump()).bind(4, t.attempt);
-      s.bind(5, t.worker_id).bind(6, t.issued_at_s).run();
+      s.bind(5, t.worker_id).bind(6, t.issued_at_s).bind(7, t.phase).run();
       s.reset();
     }
     exec("COMMIT");
@@ -257,7 +258,7 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     }
   }
   Statement s(db_, R"(SELECT study_id, trial_id, x_json, status, attempt, worker_id, issued_at, reported_at, ok, cost,
-                      report_json, report_seq FROM trials ORDER BY study_id, trial_id)");
+                      report_json, report_seq, phase FROM trials ORDER BY study_id, trial_id)");
   std::size_t k = 0;
   while (s.step()) {
     const int study_id = s.column_int(0);
@@ -284,6 +285,7 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     t.ok = s.column_int(8) != 0;
     t.cost = s.column_double(9);
     t.report_seq = s.column_int(11);
+    t.phase = s.column_text(12);
     out[k].trials.push_back(std::move(t));
   }
   Statement m(db_, "SELECT study_id, state_json FROM model_states");

@@ -28,6 +28,7 @@ struct Trial {
   double mean_speed_mps = 0.0;
   double distance_m = 0.0;
   std::map<std::string, double> params;  // every parameter of the rollout (optimised and fixed)
+  bool hardware = false;           // run by a hardware worker (the report's worker_kind)
 
   bool walked() const { return ok && !fell; }
 };

@@ -15,6 +15,12 @@
 //  * every live worker slot is kept busy: free slots are filled with ask(n) batches, round-robin over
 //    running studies, re-issued candidates first.
 //  * nothing malformed gets in: a bad sample is logged with its reason and dropped.
+//  * work goes by worker kind: exploration candidates to the study's `explore_on` kind (simulation by
+//    default), validation sets to hardware workers only. The validation phase (a study with a
+//    `validation` key) starts once the exploration budget is reported and the model holds every report:
+//    its N sets are stored at once (phase "validation"), so a restart issues the same sets. Validation
+//    reports are never told to the optimizer: they measure the answer on hardware, they do not steer it.
+//    No hardware worker on the domain: the study waits and says so in its state's message.
 #pragma once
 
 #include <cmath>
@@ -115,6 +121,7 @@ class Coordinator {
     // The worker each attempt was issued to: only that worker's report for that attempt counts, so a
     // participant that merely reads candidates cannot answer them.
     std::map<int, std::string> issued_to;
+    bool validation = false;  // a validation set (hardware only, never told to the optimizer)
   };
   // What the event thread knows of a study's model, from its latest model job.
   struct ModelSnapshot {
@@ -122,6 +129,7 @@ class Coordinator {
     int recommended_trial = 0;
     double recommended_predicted_cost = 0.0;
     std::map<std::string, double> recommended_params;
+    Eigen::VectorXd recommended_x;  // the same point in the search space (the validation sets' centre)
   };
   struct Study {
     int id = 0;
@@ -144,6 +152,11 @@ class Coordinator {
     double best_cost = std::nan("");
     int best_trial = 0;
     std::map<std::string, double> best_params;
+    Eigen::VectorXd best_x;
+    bool validation_started = false;   // its sets are in the store
+    int validated = 0;                 // validation reports counted (not in `completed`)
+    std::vector<int> validation_trials;  // counted validation trials, for retiring their records
+    bool waiting_for_hardware = false;   // hardware work waits and no hardware worker is live
     double best_normalized_torque = std::nan(""), best_speed_mps = std::nan("");
     double created_at_s = 0.0, session_start_s = 0.0;
     int completed_at_session_start = 0;
@@ -155,6 +168,7 @@ class Coordinator {
     std::string id;
     std::uint64_t key = 0;
     int slots = 0;
+    bool hardware = false;  // announced WORKER_HARDWARE
     bool accepting = true;
     double last_seen_s = 0.0;
     std::set<std::pair<int, int>> assigned;  // (study, trial)
@@ -166,15 +180,30 @@ class Coordinator {
   void open_study(Study&& study, const study::StoredStudy* stored, double now_s);
   void drop_worker(const std::string& worker_id, const std::string& why, double now_s);
   void unassign(Study& study, int trial_id, const std::string& why);
-  // Free worker slots, one entry per slot, spread across workers (most free first).
-  std::vector<Worker*> free_slots();
+  struct FreeSlots {
+    int simulation = 0;
+    int hardware = 0;
+  };
+  // Free worker slots of one kind, one entry per slot, spread across workers (most free first).
+  std::vector<Worker*> free_slots(bool hardware);
+  static bool explores_on_hardware(const Study& s) {
+    return s.config.explore_on == study::WorkerKindWanted::kHardware;
+  }
+  static int exploring_in_flight(const Study& s);
+  bool has_hardware_worker() const;
+  // Stores the validation sets once the exploration is complete and told; true when it did.
+  bool start_validation_if_due(Study& study);
+  // A counted validation report: counters only (the optimizer never hears of it).
+  void account_validation(Study& study, int trial_id, const msg::RolloutReport& report);
+  // Says in the study's message whether hardware work waits for a hardware worker.
+  void note_hardware_wait(Study& study);
   // Running studies, rotated by one each tick so that no study is always served first.
   std::vector<Study*> round_robin_order();
-  // Re-issues, then proposed points, to free slots; returns how many slots are still free.
-  int issue_waiting_work(const std::vector<Study*>& order, double now_s);
+  // Re-issues, then proposed points, to free slots of the right kind; returns the slots still free.
+  FreeSlots issue_waiting_work(const std::vector<Study*>& order, double now_s);
   void issue_proposed(Study& study, std::vector<Worker*>& slots, std::size_t& next_slot, double now_s);
   // Starts a model job for each study with reports to tell or free slots to ask for (per-tick cap).
-  void start_model_jobs(const std::vector<Study*>& order, int free_slots);
+  void start_model_jobs(const std::vector<Study*>& order, FreeSlots free);
   void start_model_job(Study& study, int ask);
   static ModelSnapshot snapshot_of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials);
   void issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue);

@@ -11,6 +11,8 @@
 //   parameters: [{name: hip_offset, low: -0.35, high: 0.35}, ...]   # the paper's six when omitted
 //   fixed: {frequency: 1.0, knee_amplitude: 0.5236}
 //   lease_s: 120            # wall seconds a worker may take per rollout before it is re-issued
+//   explore_on: simulation  # worker kind running the exploration (budget): simulation | hardware
+//   validation: {hardware_sets: 10, spread: 0.10}   # optional: the hardware validation phase
 #pragma once
 
 #include <string>
@@ -19,6 +21,17 @@
 #include "cpgmatch/bo/search_space.hpp"
 
 namespace cpgmatch::study {
+
+// The paper's protocol after the exploration: N parameter sets around the study's answer, each parameter
+// varied by at most +-spread of its value (relative), run on hardware workers. Only with a `validation`
+// key: a study without one ends with its exploration (no hardware worker is ever waited for).
+struct ValidationConfig {
+  bool enabled = false;
+  int hardware_sets = 10;
+  double spread = 0.10;
+};
+
+enum class WorkerKindWanted { kSimulation, kHardware };
 
 struct StudyConfig {
   std::string name = "paper-study";
@@ -30,6 +43,8 @@ struct StudyConfig {
   std::string terrain = "flat";
   // Wall seconds a rollout may take before its candidate is re-issued; <= 0: derived from the rollout length.
   double lease_s = 0.0;
+  WorkerKindWanted explore_on = WorkerKindWanted::kSimulation;
+  ValidationConfig validation;
   double effective_lease_s() const { return lease_s > 0.0 ? lease_s : 60.0 + 3.0 * (entrain_s + eval_s); }
 };
 

@@ -45,6 +45,9 @@ struct StoredTrial {
   bool ok = false;                 // done: the rollout ran (a fall is ok)
   double cost = 0.0;
   nlohmann::json report;           // done: the full report
+  // "exploration" (told to the optimizer) or "validation" (a hardware set around the answer, never told).
+  // Stores older than the column read as exploration, which is all they held.
+  std::string phase = "exploration";
 };
 
 struct StoredStudy {
