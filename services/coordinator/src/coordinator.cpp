@@ -517,14 +517,19 @@ void Coordinator::note_hardware_wait(Study& s) {
 void Coordinator::account_validation(Study& s, int trial_id, const msg::RolloutReport& r) {
   ++s.validated;
   s.validation_trials.push_back(trial_id);
+  count_outcome(s, r);
+}
+
+bool Coordinator::count_outcome(Study& s, const msg::RolloutReport& r) {
   s.dirty = true;
   if (!r.ok()) {
     ++s.failed;
     ++s.consecutive_failures;
-    return;
+    return false;
   }
   s.consecutive_failures = 0;
   if (r.fell()) ++s.falls;
+  return true;
 }
 
 void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::size_t& next_slot, double now_s) {
@@ -702,14 +707,7 @@ void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x,
 
 void Coordinator::account_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
   ++s.completed;
-  s.dirty = true;
-  if (!r.ok()) {
-    ++s.failed;
-    ++s.consecutive_failures;
-    return;
-  }
-  s.consecutive_failures = 0;
-  if (r.fell()) ++s.falls;
+  if (!count_outcome(s, r)) return;
   if (!(r.cost() >= s.best_cost)) {  // also true while best_cost is NaN
     s.best_cost = r.cost();
     s.best_trial = trial_id;

@@ -195,6 +195,8 @@ class Coordinator {
   bool start_validation_if_due(Study& study);
   // A counted validation report: counters only (the optimizer never hears of it).
   void account_validation(Study& study, int trial_id, const msg::RolloutReport& report);
+  // Failures, falls and the failure streak of one report, either phase; false when it did not run.
+  bool count_outcome(Study& study, const msg::RolloutReport& report);
   // Says in the study's message whether hardware work waits for a hardware worker.
   void note_hardware_wait(Study& study);
   // Running studies, rotated by one each tick so that no study is always served first.
