@@ -27,6 +27,15 @@ void LegFeedback::reset() {
   late_touchdown_wait_s_ = 0.0;
 }
 
+bool LegFeedback::landing_ready(double phase, const StepTiming& timing) const {
+  const double flex_start = early_flex_start_ >= 0.0 ? early_flex_start_ : timing.knee_flex_start;
+  const double flex_end = timing.retraction_start;
+  // Only the re-extension half of the knee's flexion bump: early in swing the knee is also nearly straight,
+  // but there the leg is lifting (a contact there is a scuff, handled by etd_min_airborne_s).
+  if (phase < 0.5 * (flex_start + flex_end) || phase >= flex_end) return false;
+  return knee_profile(phase, flex_start, flex_end) < config_.etd_min_knee_flexion_fraction;
+}
+
 FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, const StepTiming& timing) {
   const double duty = timing.duty_factor;
   if (!initialised_) {
@@ -89,7 +98,9 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
     }
   } else {
     if (!contact) lifted_off_ = true;
-    if (contact && phase >= timing.retraction_start) touched_down_ = true;  // on-time touchdown
+    // On time: in retraction, or with the leg already re-extended for landing (see landing_ready()).
+    const bool on_time = phase >= timing.retraction_start || landing_ready(phase, timing);
+    if (contact && on_time) touched_down_ = true;
     // Late toe-off: still on the ground after the nominal toe-off, never lifted in between.
     if (contact && !lifted_off_) {
       action.activity.late_toeoff = true;
@@ -97,10 +108,10 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
         action.phase_rate = std::min(action.phase_rate, config_.late_toeoff_phase_rate);
       }
     }
-    // Early touchdown: touched again after lifting off, before retraction.
-    // Early touchdown: touched again after a real flight (not a scuff just after toe-off), before retraction.
-    if (contact && lifted_off_ && last_flight_s_ >= config_.etd_min_airborne_s &&
-        phase < timing.retraction_start && !reflex_used_ && config_.early_touchdown) {
+    // Early touchdown: touched again after a real flight (not a scuff just after toe-off), while the leg
+    // was still shortened for ground clearance.
+    if (contact && lifted_off_ && last_flight_s_ >= config_.etd_min_airborne_s && !on_time && !reflex_used_ &&
+        config_.early_touchdown) {
       reflex_used_ = true;
       reflex_time_left_ = config_.reflex_duration_s;
     }

@@ -138,7 +138,7 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       f.reject_unknown_keys({"late_touchdown", "early_touchdown", "early_toeoff", "late_toeoff_deceleration",
                              "late_touchdown_phase_rate", "late_toeoff_phase_rate", "reflex_duration_s",
                              "reflex_knee_flexion_rad", "reflex_hip_passive", "etd_min_airborne_s",
-                             "late_touchdown_max_wait_s"});
+                             "etd_min_knee_flexion_fraction", "late_touchdown_max_wait_s"});
       auto& fb = cc.feedback;
       fb.late_touchdown = f.get_bool("late_touchdown", fb.late_touchdown);
       fb.early_touchdown = f.get_bool("early_touchdown", fb.early_touchdown);
@@ -150,6 +150,8 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       fb.reflex_knee_flexion_rad = f.get_double("reflex_knee_flexion_rad", fb.reflex_knee_flexion_rad);
       fb.reflex_hip_passive = f.get_bool("reflex_hip_passive", fb.reflex_hip_passive);
       fb.etd_min_airborne_s = f.get_double("etd_min_airborne_s", fb.etd_min_airborne_s);
+      fb.etd_min_knee_flexion_fraction =
+          f.get_double_in("etd_min_knee_flexion_fraction", fb.etd_min_knee_flexion_fraction, 0.0, 1.0);
       // Optional: absent means unbounded (the paper's "until contact"), which YAML cannot spell as a number.
       if (f.has("late_touchdown_max_wait_s")) {
         fb.late_touchdown_max_wait_s = f.get_double_in("late_touchdown_max_wait_s", 0.0, 0.0, 10.0);

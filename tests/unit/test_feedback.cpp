@@ -153,6 +153,23 @@ TEST(Feedback, AToeScuffingTheGroundJustAfterToeoffIsNoEarlyTouchdown) {
   EXPECT_GT(impact.etd, 0);
 }
 
+TEST(Feedback, AFootLandingWithTheLegReExtendedIsATouchdownNotAnEarlyTouchdown) {
+  // Knee flexion runs 0.4 -> 0.9 (peak at 0.65); it is below 20% of the amplitude again from ~0.83 on.
+  // Landing at 0.86, 40 ms before the retraction, and staying down: on time, no reflex and no late touchdown.
+  const Counts landing = run([](double phi) { return phi < 0.5 || phi >= 0.86; });
+  EXPECT_EQ(landing.etd, 0);
+  EXPECT_EQ(landing.ltd, 0);
+  EXPECT_FALSE(landing.hip_passive);
+  // Hitting the ground at 0.75 with the knee still ~65% flexed for clearance is a stumble: the reflex fires.
+  const Counts stumble = run([](double phi) { return phi < 0.5 || phi >= 0.75; });
+  EXPECT_GT(stumble.etd, 0);
+  EXPECT_TRUE(stumble.hip_passive);
+  // With the landing window switched off (fraction 0) the same landing at 0.86 fires the reflex.
+  FeedbackConfig strict;
+  strict.etd_min_knee_flexion_fraction = 0.0;
+  EXPECT_GT(run([](double phi) { return phi < 0.5 || phi >= 0.86; }, strict).etd, 0);
+}
+
 TEST(Feedback, LateToeoffIsMeasuredAndDeceleratesOnlyWhenConfigured) {
   const auto late = [](double phi) { return phi < 0.6; };  // still on the ground after 0.5
   const Counts measured = run(late);

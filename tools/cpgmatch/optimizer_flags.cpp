@@ -11,7 +11,7 @@ void OptimizerFlags::add_to(CLI::App* cmd) {
   cmd->add_option("--initial", initial, "initial design points before the model is used (default 15)");
   cmd->add_option("--acq", acquisition, "gp_hedge | ei | pi | lcb");
   cmd->add_option("--design", design, "initial design: random | lhs | sobol | halton");
-  cmd->add_option("--liar", liar, "constant-liar value for batches: min | mean | max");
+  cmd->add_option("--liar", liar, "fake result for pending points in batches: believer (the model's mean) | min | mean | max");
   cmd->add_option("--seed", seed, "random seed (same seed, same sequence)");
   cmd->add_option("--batch", batch, "points proposed and evaluated in parallel");
   cmd->add_flag("--quiet", quiet, "no progress lines");

@@ -12,7 +12,7 @@ struct OptimizerFlags {
   int initial = 15;
   std::string acquisition = "gp_hedge";
   std::string design = "random";
-  std::string liar = "min";
+  std::string liar = "believer";
   std::uint64_t seed = 0;
   int batch = 1;
   bool quiet = false;

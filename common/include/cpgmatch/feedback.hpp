@@ -5,7 +5,11 @@
 //   late touchdown  (LTD): stance has begun (phi in [0, D)) but the foot has not touched down yet.
 //                          The leg's phase is decelerated until contact ("wait for the ground").
 //   early touchdown (ETD): the foot touches down during swing, after it had been airborne for at least
-//                          etd_min_airborne_s and before swing-leg retraction. Triggers a knee pull-up reflex
+//                          etd_min_airborne_s, while the knee is still flexed for ground clearance (more
+//                          than etd_min_knee_flexion_fraction of its amplitude, or before the flexion
+//                          peak). A contact with the leg re-extended for landing, just before the
+//                          overswing point, is the touchdown Fig. 2d expects at delta_overSwing, arriving
+//                          a few milliseconds early: stance, not a stumble. Triggers a knee pull-up reflex
 //                          on a fixed trajectory and makes the hip motor passive, so the leg springs absorb
 //                          the impact. The airborne time keeps a toe that scuffs the ground just after toe-off
 //                          (which is a late toe-off, not an impact) from firing the reflex.
@@ -49,6 +53,13 @@ struct FeedbackConfig {
   double late_toeoff_phase_rate = 0.5;     // phase speed factor during LTO, when deceleration is on
   double reflex_duration_s = 0.12;         // knee pull-up reflex length, seconds
   double etd_min_airborne_s = 0.04;        // swing contact counts as ETD only after this long in the air, s
+  // A swing contact is an ETD only while the commanded knee flexion exceeds this fraction of the knee
+  // amplitude (or the knee is still flexing). Why 0.2: the leg's length changes by about 0.1 m per radian
+  // of knee flexion, so with the paper's 0.52 rad amplitude 20% leaves ~1 cm of clearance; a foot meeting
+  // the ground that close to its landing length is landing (at a ~0.3 m/s descent, ~30 ms early), not
+  // hitting an obstacle. Without this, a foot landing 5-10 ms before retraction fired the reflex, which
+  // lifted it off again: a systematic double contact on most gaits (J_contact ~1, traced in docs/model.md).
+  double etd_min_knee_flexion_fraction = 0.2;
   double reflex_knee_flexion_rad = 0.5;    // peak extra knee flexion of the reflex, radians
   bool reflex_hip_passive = true;          // hip motor passive while the reflex runs
 
@@ -85,6 +96,9 @@ class LegFeedback {
 
  private:
   enum class Part { kStance, kSwing };
+
+  // In swing, the knee has re-extended for landing (below etd_min_knee_flexion_fraction of its amplitude).
+  bool landing_ready(double phase, const StepTiming& timing) const;
 
   FeedbackConfig config_;
   bool initialised_ = false;

@@ -21,6 +21,7 @@ enum Purpose : std::uint64_t { kAskPurpose = 1, kTellPurpose = 2, kFitPurpose = 
 
 std::string to_string(LiarStrategy s) {
   switch (s) {
+    case LiarStrategy::kBeliever: return "believer";
     case LiarStrategy::kMin: return "min";
     case LiarStrategy::kMean: return "mean";
     case LiarStrategy::kMax: return "max";
@@ -29,10 +30,11 @@ std::string to_string(LiarStrategy s) {
 }
 
 LiarStrategy liar_from_string(std::string_view name) {
+  if (name == "believer" || name == "kriging_believer") return LiarStrategy::kBeliever;
   if (name == "min" || name == "cl_min") return LiarStrategy::kMin;
   if (name == "mean" || name == "cl_mean") return LiarStrategy::kMean;
   if (name == "max" || name == "cl_max") return LiarStrategy::kMax;
-  throw InputError(fmt::format("unknown liar strategy '{}' (known: min, mean, max)", name));
+  throw InputError(fmt::format("unknown liar strategy '{}' (known: believer, min, mean, max)", name));
 }
 
 void OptimizerOptions::validate() const {
@@ -272,10 +274,12 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask(int n, const std::vector<Eig
 
 std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vector<Eigen::VectorXd>& busy, int issued) {
   Dataset data = dataset();
-  const double lie = options_.liar == LiarStrategy::kMin    ? data.y.minCoeff()
-                     : options_.liar == LiarStrategy::kMean ? data.y.mean()
-                                                            : data.y.maxCoeff();
+  const double constant_lie = options_.liar == LiarStrategy::kMin    ? data.y.minCoeff()
+                              : options_.liar == LiarStrategy::kMean ? data.y.mean()
+                                                                     : data.y.maxCoeff();
+  // The believer asks the working model (which already holds the earlier lies of this ask) for its mean.
   auto append = [&](const Eigen::VectorXd& u) {
+    const double lie = options_.liar == LiarStrategy::kBeliever ? gp_.predict(u).mean : constant_lie;
     data.X.conservativeResize(data.X.rows() + 1, Eigen::NoChange);
     data.X.row(data.X.rows() - 1) = u.transpose();
     data.y.conservativeResize(data.y.size() + 1);

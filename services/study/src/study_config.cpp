@@ -48,7 +48,7 @@ StudyConfig parse(const YamlReader& r) {
   }
   try {
     s.optimizer.initial_design = bo::initial_design_from_string(r.get_string("initial_design", "random"));
-    s.optimizer.liar = bo::liar_from_string(r.get_string("liar", "min"));
+    s.optimizer.liar = bo::liar_from_string(r.get_string("liar", "believer"));
   } catch (const InputError& e) {
     r.fail(r.has("liar") ? "liar" : "initial_design", e.what());
   }

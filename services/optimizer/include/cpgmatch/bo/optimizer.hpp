@@ -13,8 +13,14 @@
 // state and the pending points, with randomness seeded by (seed, number of points issued). Therefore
 // replaying the observation list through tell() rebuilds exactly the same optimizer (rebuild()).
 //
-// Batches use the constant liar: each pending or newly chosen point is added to the GP with a fake
-// result (min, mean or max of the observations; hyperparameters kept) before the next point is chosen.
+// Batches add each pending or newly chosen point to the GP with a fake result (hyperparameters kept)
+// before the next point is chosen. The default is the kriging believer (Ginsbourger et al. 2010): the
+// fake result is the model's own mean there, so a pending point only removes the uncertainty around it.
+// The constant liars (min, mean or max of the observations) bias the mean. With asynchronous workers there
+// is nearly always one pending point, the latest proposal, and the min liar declares it as good as the
+// best: the acquisition then peaks right beside it, the next proposal is a small step on, and the study
+// walks a path of neighbouring points whatever their results (31 consecutive rollouts in one measured study,
+// tests/unit/data/walk_study_trials.csv).
 //
 // Failed evaluations are kept and enter the GP with the worst successful cost observed so far
 // (re-imputed at every fit), which pushes the search away from them without inventing a scale.
@@ -35,9 +41,9 @@
 
 namespace cpgmatch::bo {
 
-enum class LiarStrategy { kMin, kMean, kMax };
+enum class LiarStrategy { kBeliever, kMin, kMean, kMax };
 std::string to_string(LiarStrategy s);
-LiarStrategy liar_from_string(std::string_view name);  // "min", "mean", "max" (also "cl_min", ...)
+LiarStrategy liar_from_string(std::string_view name);  // "believer", "min", "mean", "max" (also "cl_min", ...)
 
 struct OptimizerOptions {
   int initial_points = 15;             // paper: 15 random rollouts before the model is used
@@ -49,7 +55,7 @@ struct OptimizerOptions {
   int acquisition_candidates = 1000;   // random points scored (once, shared by the portfolio) before refinement
   int acquisition_local_starts = 5;    // best candidates refined with L-BFGS
   int acquisition_local_evaluations = 40;
-  LiarStrategy liar = LiarStrategy::kMin;
+  LiarStrategy liar = LiarStrategy::kBeliever;
   std::uint64_t seed = 0;
   GpOptions gp;
   // Hyperparameters: warm-started L-BFGS at every fit; random restarts at every k-th fit as well.
