@@ -19,7 +19,7 @@ short = ["--entrain", "0", "--eval", "0.05"]
 templates = {
     "rollout": ["--entrain", "--eval", "--treadmill", "--seed", "--set", "--terrain", "--disable"],
     "analyze": ["--store", "--study", "--jitter"],
-    "optimize": ["--budget", "--initial", "--seed", "--batch", "--timeout", "--acq", "--design", "--liar"],
+    "optimize": ["--budget", "--initial", "--seed", "--batch", "--timeout", "--acq", "--design", "--liar", "--cost-transform"],
     "reproduce": ["--seeds", "--workers", "--jitter"],
 }
 bad = 0

@@ -38,7 +38,7 @@ std::string random_value(std::mt19937_64& rng) {
 
 std::string random_study(std::mt19937_64& rng) {
   static const std::vector<std::string> keys = {"name", "budget", "initial_points", "initial_design", "acquisition",
-                                                "liar", "seed", "rollout", "terrain", "parameters", "fixed",
+                                                "liar", "cost_transform", "seed", "rollout", "terrain", "parameters", "fixed",
                                                 "lease_s", "unknown_key", "[k]", "name"};
   std::string yaml;
   if (rng() % 4 != 0) yaml += "name: fuzz\n";  // usually named, so the other keys get checked too

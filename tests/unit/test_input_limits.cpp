@@ -38,6 +38,16 @@ TEST(InputLimits, EveryNumericStudyKeyHasARange) {
   EXPECT_EQ(study_error("name: a\nbudget: 20\ninitial_points: 20\n"), "");  // the edges are allowed
 }
 
+TEST(InputLimits, OptimizerChoicesAreNamedWithTheirLine) {
+  const std::string transform = study_error("name: a\ncost_transform: sqrt\n");
+  EXPECT_NE(transform.find("s.yaml:2"), std::string::npos) << transform;
+  EXPECT_NE(transform.find("cost_transform"), std::string::npos) << transform;
+  EXPECT_NE(transform.find("known: none, log"), std::string::npos) << transform;
+  const std::string liar = study_error("name: a\nliar: optimist\n");
+  EXPECT_NE(liar.find("liar"), std::string::npos) << liar;
+  EXPECT_EQ(study_error("name: a\ncost_transform: log\nliar: believer\n"), "");
+}
+
 TEST(InputLimits, StudyNamesAreBoundedPrintableUtf8) {
   EXPECT_NE(study_error("name: a\xff\xfe\n").find("name"), std::string::npos);  // raw bytes, not UTF-8
   EXPECT_NE(study_error("name: " + std::string(65, 'x') + "\n").find("at most 64"), std::string::npos);

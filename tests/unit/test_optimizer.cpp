@@ -149,6 +149,31 @@ TEST(Optimizer, ThePendingPointOfAnAsynchronousWorkerDoesNotDragTheNextProposalA
   EXPECT_GT(step_from_the_pending_point_of_the_recorded_walk(LiarStrategy::kBeliever), 0.2);
 }
 
+TEST(Optimizer, UnderALogCostTransformNonPositiveCostsAreRefusedAndPredictionsAreInCostUnits) {
+  const TestFunction tf = test_function("quadratic1d");  // (x - 0.5)^2 style bowl with minimum 0
+  OptimizerOptions o;
+  o.initial_points = 5;
+  o.seed = 4;
+  o.cost_transform = CostTransform::kLog;
+  BayesianOptimizer opt(tf.space, o);
+  const auto shifted = [&](const Eigen::VectorXd& x) { return 2.0 + tf.f(x); };  // a cost > 0 everywhere
+  for (int i = 0; i < 12; ++i) {
+    const auto x = opt.ask(1)[0];
+    opt.tell(x, shifted(x));
+  }
+  try {
+    opt.tell(opt.ask(1)[0], 0.0);
+    ADD_FAILURE() << "a zero cost was accepted under log";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("> 0"), std::string::npos) << e.what();
+  }
+  // The posterior mean at the recommended point comes back in cost units (about 2, not log 2 = 0.69).
+  const auto rec = opt.recommended();
+  ASSERT_TRUE(rec.has_value());
+  EXPECT_NEAR(rec->predicted, opt.observations()[rec->observation].y, 0.05);
+  EXPECT_LT(opt.best()->y - 2.0, 1e-2) << "the log model still finds the minimum";
+}
+
 TEST(Optimizer, SameSeedSameSequenceDifferentSeedDifferentSequence) {
   const TestFunction tf = test_function("branin");
   auto run = [&](std::uint64_t seed) {

@@ -12,6 +12,7 @@ void OptimizerFlags::add_to(CLI::App* cmd) {
   cmd->add_option("--acq", acquisition, "gp_hedge | ei | pi | lcb");
   cmd->add_option("--design", design, "initial design: random | lhs | sobol | halton");
   cmd->add_option("--liar", liar, "fake result for pending points in batches: believer (the model's mean) | min | mean | max");
+  cmd->add_option("--cost-transform", cost_transform, "what the GP models: none (the cost) | log (log cost; costs must be > 0)");
   cmd->add_option("--seed", seed, "random seed (same seed, same sequence)");
   cmd->add_option("--batch", batch, "points proposed and evaluated in parallel");
   cmd->add_flag("--quiet", quiet, "no progress lines");
@@ -27,6 +28,7 @@ bo::OptimizerOptions OptimizerFlags::to_options() const {
   o.acquisition = bo::acquisition_from_string(acquisition);
   o.initial_design = bo::initial_design_from_string(design);
   o.liar = bo::liar_from_string(liar);
+  o.cost_transform = bo::cost_transform_from_string(cost_transform);
   o.seed = seed;
   return o;
 }

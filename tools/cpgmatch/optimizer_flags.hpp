@@ -13,6 +13,7 @@ struct OptimizerFlags {
   std::string acquisition = "gp_hedge";
   std::string design = "random";
   std::string liar = "believer";
+  std::string cost_transform = "none";
   std::uint64_t seed = 0;
   int batch = 1;
   bool quiet = false;

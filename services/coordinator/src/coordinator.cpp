@@ -655,6 +655,10 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
   if (auto why = dds::check_report(r)) return reject(what, *why);
   Study* s = find_study(static_cast<int>(r.study_id()));
   if (s == nullptr) return reject(what, "unknown study");
+  if (r.ok() && s->config.optimizer.cost_transform == bo::CostTransform::kLog && !(r.cost() > 0.0)) {
+    // The model fits log(cost): a non-positive cost would poison it. No rollout cost is <= 0 (J_distance > 0).
+    return reject(what, fmt::format("cost {} must be > 0 in a study with cost_transform: log", r.cost()));
+  }
   const int trial_id = static_cast<int>(r.trial_id());
   const auto it = s->in_flight.find(trial_id);
   if (it == s->in_flight.end()) {

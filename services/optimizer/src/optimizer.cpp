@@ -37,6 +37,14 @@ LiarStrategy liar_from_string(std::string_view name) {
   throw InputError(fmt::format("unknown liar strategy '{}' (known: believer, min, mean, max)", name));
 }
 
+std::string to_string(CostTransform t) { return t == CostTransform::kLog ? "log" : "none"; }
+
+CostTransform cost_transform_from_string(std::string_view name) {
+  if (name == "none") return CostTransform::kNone;
+  if (name == "log") return CostTransform::kLog;
+  throw InputError(fmt::format("unknown cost transform '{}' (known: none, log)", name));
+}
+
 void OptimizerOptions::validate() const {
   if (initial_points < 1) throw InputError(fmt::format("initial_points must be >= 1, got {}", initial_points));
   if (budget < 0) throw InputError(fmt::format("budget must be >= 0 (0: no limit), got {}", budget));
@@ -89,16 +97,31 @@ BayesianOptimizer::Dataset BayesianOptimizer::dataset() const {
   d.y.resize(n);
   for (int i = 0; i < n; ++i) {
     d.X.row(i) = space_.to_unit(observations_[i].x).transpose();
-    d.y[i] = observations_[i].failed ? worst : observations_[i].y;
+    d.y[i] = to_model(observations_[i].failed ? worst : observations_[i].y);
   }
   return d;
 }
 
+double BayesianOptimizer::to_model(double cost) const {
+  return options_.cost_transform == CostTransform::kLog ? std::log(cost) : cost;
+}
+
+double BayesianOptimizer::from_model(double value) const {
+  return options_.cost_transform == CostTransform::kLog ? std::exp(value) : value;
+}
+
+void BayesianOptimizer::check_cost(double y, const char* where) const {
+  if (!std::isfinite(y)) {
+    throw InputError(fmt::format("{}: cost must be a finite number, got {} (use tell_failure for failed evaluations)", where, y));
+  }
+  if (options_.cost_transform == CostTransform::kLog && !(y > 0.0)) {
+    throw InputError(fmt::format("{}: cost must be > 0 with cost_transform log, got {}", where, y));
+  }
+}
+
 void BayesianOptimizer::tell(const Eigen::VectorXd& x, double y) {
   space_.check_point(x);
-  if (!std::isfinite(y)) {
-    throw InputError(fmt::format("tell: cost must be a finite number, got {} (use tell_failure for failed evaluations)", y));
-  }
+  check_cost(y, "tell");
   record({x, y, false});
 }
 
@@ -110,7 +133,7 @@ void BayesianOptimizer::tell_failure(const Eigen::VectorXd& x) {
 void BayesianOptimizer::tell_batch(const std::vector<Observation>& batch) {
   for (const auto& o : batch) {
     space_.check_point(o.x);
-    if (!o.failed && !std::isfinite(o.y)) throw InputError(fmt::format("tell_batch: cost must be a finite number, got {}", o.y));
+    if (!o.failed) check_cost(o.y, "tell_batch");
   }
   if (batch.empty()) return;
   observations_.insert(observations_.end(), batch.begin(), batch.end());
@@ -325,7 +348,7 @@ std::optional<BayesianOptimizer::Recommendation> BayesianOptimizer::recommended(
   for (std::size_t i = 0; i < observations_.size(); ++i) {
     const Observation& o = observations_[i];
     if (o.failed) continue;
-    const double value = gp_.fitted() ? gp_.predict(space_.to_unit(o.x)).mean : o.y;
+    const double value = gp_.fitted() ? from_model(gp_.predict(space_.to_unit(o.x)).mean) : o.y;
     if (!out || value < out->predicted) out = Recommendation{i, value};
   }
   return out;

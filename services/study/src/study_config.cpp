@@ -33,7 +33,7 @@ constexpr double kMaxRolloutPartS = 3600.0;  // entrainment or evaluation, secon
 
 StudyConfig parse(const YamlReader& r) {
   r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
-                         "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation"});
+                         "cost_transform", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation"});
   StudyConfig s;
   // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");
@@ -51,6 +51,13 @@ StudyConfig parse(const YamlReader& r) {
     s.optimizer.liar = bo::liar_from_string(r.get_string("liar", "believer"));
   } catch (const InputError& e) {
     r.fail(r.has("liar") ? "liar" : "initial_design", e.what());
+  }
+  // Studies model log(cost) by default: a rollout's cost is > 0 by construction (J_distance >= 1/x > 0) and
+  // spans a fall cliff (13-19 against 0.4-2) that would set a linear GP's amplitude (docs/optimizer.md).
+  try {
+    s.optimizer.cost_transform = bo::cost_transform_from_string(r.get_string("cost_transform", "log"));
+  } catch (const InputError& e) {
+    r.fail("cost_transform", e.what());
   }
   const int seed = r.get_int_in("seed", 0, 0, 2'000'000'000);
   s.optimizer.seed = static_cast<std::uint64_t>(seed);

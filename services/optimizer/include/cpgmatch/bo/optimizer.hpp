@@ -42,6 +42,15 @@
 namespace cpgmatch::bo {
 
 enum class LiarStrategy { kBeliever, kMin, kMean, kMax };
+
+// What the GP models. kLog fits log(cost) (costs must be > 0): a cost that spans a cliff (a fall costs
+// 13-19, a good gait 0.4-2) dominates a GP's amplitude in linear units, so the model's uncertainty
+// everywhere unexplored dwarfs the differences between good gaits and the acquisition keeps leaving
+// them; in log units a fall is ~3.5 above a good gait and a 10% improvement is 0.1 wherever it happens.
+// A monotone transform leaves the minimiser unchanged; costs are stored and reported untransformed.
+enum class CostTransform { kNone, kLog };
+std::string to_string(CostTransform t);
+CostTransform cost_transform_from_string(std::string_view name);  // "none", "log"
 std::string to_string(LiarStrategy s);
 LiarStrategy liar_from_string(std::string_view name);  // "believer", "min", "mean", "max" (also "cl_min", ...)
 
@@ -56,6 +65,7 @@ struct OptimizerOptions {
   int acquisition_local_starts = 5;    // best candidates refined with L-BFGS
   int acquisition_local_evaluations = 40;
   LiarStrategy liar = LiarStrategy::kBeliever;
+  CostTransform cost_transform = CostTransform::kNone;
   std::uint64_t seed = 0;
   GpOptions gp;
   // Hyperparameters: warm-started L-BFGS at every fit; random restarts at every k-th fit as well.
@@ -110,7 +120,7 @@ class BayesianOptimizer {
   std::optional<Observation> best() const;  // lowest successful y
   struct Recommendation {
     std::size_t observation = 0;  // index into observations()
-    double predicted = 0.0;       // posterior mean there (the observed y before the model is fitted)
+    double predicted = 0.0;       // posterior mean there in cost units (the observed y before the model is fitted)
   };
   // The successful observation with the lowest GP posterior mean (noise learned: a lucky draw is not
   // believed), or the lowest y while there is no model. Empty before the first success.
@@ -145,6 +155,9 @@ class BayesianOptimizer {
   void refit();
   // The end of a refit, once the GP is fitted: the next proposal of every acquisition.
   void propose(const Dataset& data);
+  double to_model(double cost) const;     // the cost in the units the GP models (cost_transform)
+  double from_model(double value) const;  // back to cost units
+  void check_cost(double y, const char* where) const;  // throws InputError: not finite, or <= 0 under log
   bool model_due() const;  // enough observations for the model (the condition under which record() refits)
   std::mt19937_64 rng_for(std::uint64_t counter, std::uint64_t purpose) const;
   // Minimises each acquisition over the unit cube on the current GP. The random candidates and their
