@@ -159,6 +159,21 @@ TEST_F(CoordinatorTest, DuplicateAndForgedReportsAreNotCounted) {
   EXPECT_EQ(out_.states.back().completed(), 1u);
 }
 
+TEST_F(CoordinatorTest, ANonPositiveCostIsRefusedInALogCostStudyAndTheTrialCanStillBeAnswered) {
+  submit(3, 3);  // studies model log(cost) by default
+  worker("a", 1);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 1u);
+  coordinator_->handle_report(report_for(out_.candidates[0], 0.0), now_);
+  coordinator_->handle_report(report_for(out_.candidates[0], -2.5), now_);
+  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(coordinator_->rejected_samples(), 2u);
+  ASSERT_FALSE(warnings_.empty());
+  EXPECT_NE(warnings_.back().find("must be > 0"), std::string::npos) << warnings_.back();
+  coordinator_->handle_report(report_for(out_.candidates[0], 1.5), now_);  // the real result still counts
+  EXPECT_EQ(out_.trials.size(), 1u);
+}
+
 TEST_F(CoordinatorTest, AReportCountsOnlyFromTheWorkerItsCandidateWasAssignedTo) {
   submit(4, 4);
   worker("a", 1);
