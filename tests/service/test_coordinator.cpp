@@ -68,6 +68,59 @@ class CoordinatorTest : public ::testing::Test {
     return static_cast<int>(out_.replies.back().study_id());
   }
   std::vector<std::map<std::string, double>> one_slot_study(int answers, int restart_after);
+ public:
+  std::map<int, std::map<std::string, double>> run_two_worker_study(int lockstep, bool newest_first,
+                                                                    int restart_at_step = -1) {
+    coordinator_.reset();
+    store_.reset();
+    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path_ + suffix);
+    open();
+    msg::StudyCommand c;
+    c.correlation_id(++correlation_);
+    c.client_id("test");
+    c.kind(msg::COMMAND_SUBMIT);
+    c.study_yaml("name: t\nbudget: 24\ninitial_points: 6\nlockstep: " + std::to_string(lockstep) +
+                 "\nrollout: {entrain_s: 1, eval_s: 1}\n");
+    coordinator_->handle_command(c, now_);
+    EXPECT_TRUE(out_.replies.back().ok()) << out_.replies.back().message().to_string();
+    worker("a", 1);
+    worker("b", 1);
+    settle(now_ += 0.01);
+    std::map<int, std::map<std::string, double>> issued;
+    std::map<int, msg::Candidate> outstanding;
+    std::size_t seen = 0;
+    for (int step = 0; step < 200; ++step) {
+      for (; seen < out_.candidates.size(); ++seen) {
+        const msg::Candidate& cand = out_.candidates[seen];
+        issued[static_cast<int>(cand.trial_id())] = dds::from_wire(cand.parameters());
+        outstanding[static_cast<int>(cand.trial_id())] = cand;
+      }
+      if (outstanding.empty()) break;
+      if (step == restart_at_step) {
+        // kill -9 and restart: the store is all that is left; in-flight candidates go out again.
+        open();
+        coordinator_->resume_from_store(now_);
+        worker("a", 1);
+        worker("b", 1);
+        settle(now_ += 0.01);
+        seen = 0;
+        outstanding.clear();
+        for (; seen < out_.candidates.size(); ++seen) {
+          const msg::Candidate& cand = out_.candidates[seen];
+          EXPECT_EQ(dds::from_wire(cand.parameters()), issued.at(static_cast<int>(cand.trial_id())));
+          outstanding[static_cast<int>(cand.trial_id())] = cand;
+        }
+      }
+      const auto pick = newest_first ? std::prev(outstanding.end()) : outstanding.begin();
+      double cost = 0.5;
+      for (const auto& [name, value] : issued.at(pick->first)) cost += (value - 0.3) * (value - 0.3);
+      coordinator_->handle_report(report_for(pick->second, cost), now_);
+      outstanding.erase(pick);
+      settle(now_ += 0.01);
+    }
+    return issued;
+  }
+ protected:
   // A tick, then with model threads: wait for the model jobs it started and tick again until none is left
   // (what the service's event loop does as results arrive). Without model threads: just the tick.
   void settle(double now_s) {
@@ -137,6 +190,34 @@ TEST_F(CoordinatorTest, FillsEveryFreeSlotAndFinishesWithExactlyTheBudget) {
   EXPECT_EQ(out_.states.back().state(), msg::STUDY_DONE);
   // Every candidate carries the complete CPG parameter set.
   EXPECT_EQ(out_.candidates[0].parameters().size(), 8u);
+}
+
+// A study with two one-slot workers whose reports are answered oldest-first or newest-first; the cost is
+// a smooth function of the point. Returns the point issued for each trial id.
+std::map<int, std::map<std::string, double>> two_worker_study(CoordinatorTest& t, int lockstep, bool newest_first,
+                                                              int restart_at_step = -1);
+
+TEST_F(CoordinatorTest, ALockstepStudyIsTheSameWhateverOrderItsReportsArriveIn) {
+  const auto oldest = two_worker_study(*this, 2, false);
+  const auto newest = two_worker_study(*this, 2, true);
+  ASSERT_EQ(oldest.size(), 24u);
+  ASSERT_EQ(newest.size(), 24u);
+  for (const auto& [trial, point] : oldest) EXPECT_EQ(point, newest.at(trial)) << "trial " << trial;
+  // Asynchronous, the same two orders take different paths once the model is used: what lockstep is for.
+  const auto async_oldest = two_worker_study(*this, 0, false);
+  const auto async_newest = two_worker_study(*this, 0, true);
+  int differ = 0;
+  for (const auto& [trial, point] : async_oldest) differ += async_newest.count(trial) && point != async_newest.at(trial);
+  EXPECT_GT(differ, 0);
+}
+
+TEST_F(CoordinatorTest, ALockstepStudyRestartedMidwayIsTheSameStudy) {
+  const auto straight = two_worker_study(*this, 2, true);
+  for (const int restart_at : {5, 13}) {  // in the initial design, and with the model in use
+    const auto restarted = two_worker_study(*this, 2, true, restart_at);
+    ASSERT_EQ(restarted.size(), straight.size()) << "restart at " << restart_at;
+    for (const auto& [trial, point] : straight) EXPECT_EQ(point, restarted.at(trial)) << "trial " << trial << ", restart at " << restart_at;
+  }
 }
 
 TEST_F(CoordinatorTest, DuplicateAndForgedReportsAreNotCounted) {
@@ -630,6 +711,11 @@ TEST_F(CoordinatorTest, SeveralStudiesShareTheWorkersAndAllFinish) {
   EXPECT_EQ(store_->load(first)->state, "done");
   EXPECT_EQ(store_->load(second)->state, "done");
   EXPECT_EQ(out_.trials.size(), 12u);
+}
+
+std::map<int, std::map<std::string, double>> two_worker_study(CoordinatorTest& t, int lockstep, bool newest_first,
+                                                              int restart_at_step) {
+  return t.run_two_worker_study(lockstep, newest_first, restart_at_step);
 }
 
 }  // namespace

@@ -111,6 +111,22 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   if (opts.workers < 0) throw InputError("--workers must be >= 1");
   const int workers = opts.workers > 0 ? opts.workers : std::max(1u, std::thread::hardware_concurrency());
   result.workers = workers;
+  // A local study is reproducible: unless the file says otherwise, it runs in lockstep with one rollout per
+  // worker, so the same seed and worker count give the same study whatever order the reports arrive in.
+  std::string config_text = opts.config_text;
+  if (!cfg.lockstep_given) {
+    std::string locked = config_text;
+    if (!locked.empty() && locked.back() != '\n') locked += '\n';
+    locked += fmt::format("lockstep: {}  # added by study run: {} workers\n", workers, workers);
+    try {
+      result.config = study::load_study_config_text(locked, opts.config_source);
+      config_text = std::move(locked);
+    } catch (const InputError&) {
+      // A flow-style file ({name: x, ...}) cannot take an appended key: it runs asynchronously.
+      fmt::print(stderr, "note: {}: could not add `lockstep: {}`; the study runs asynchronously (not reproducible)\n",
+                 opts.config_source, workers);
+    }
+  }
   const int domain = opts.domain >= 0 ? opts.domain : private_domain();
   dds::validate_domain(domain);
   const fs::path dir = opts.out.empty() ? timestamped_results_dir(cfg.name) : opts.out;
@@ -153,7 +169,7 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   runtime::apply_dds_flags(env_only);
   client::StudyClient client(domain, true, /*read_trials=*/true);
   const auto start = std::chrono::steady_clock::now();
-  const client::CommandResult submitted = client.submit(opts.config_text, opts.config_source, 30.0);
+  const client::CommandResult submitted = client.submit(config_text, opts.config_source, 30.0);
   if (!submitted.ok) {
     stop_all();
     throw InputError(submitted.message);

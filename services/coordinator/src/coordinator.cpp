@@ -4,6 +4,8 @@
 #include "cpgmatch/service/coordinator.hpp"
 
 #include <algorithm>
+#include <set>
+#include <vector>
 #include <cmath>
 #include <optional>
 
@@ -149,9 +151,32 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     return a->reported_at_s != b->reported_at_s ? a->reported_at_s < b->reported_at_s : a->trial_id < b->trial_id;
   });
   std::vector<bo::Observation> observations;
-  for (const auto* t : done) {
-    observations.push_back({t->x, t->cost, !t->ok});
-    s.told_trials.push_back(t->trial_id);
+  if (s.config.lockstep > 0) {
+    // Lockstep: the optimizer holds trials 0..T-1 in trial order, T = what its saved state was fitted on;
+    // the other reports wait in `untold` until an ask needs them, exactly as they would have.
+    std::sort(done.begin(), done.end(),
+              [](const study::StoredTrial* a, const study::StoredTrial* b) { return a->trial_id < b->trial_id; });
+    std::size_t told = 0;
+    if (stored != nullptr && stored->model_state.is_object()) {
+      try {
+        told = static_cast<std::size_t>(std::max(0, model_state_from_json(stored->model_state).observations));
+      } catch (const std::exception&) {
+        told = 0;  // restored_optimizer() says why and replays
+      }
+    }
+    for (const auto* t : done) {
+      if (t->trial_id == static_cast<int>(observations.size()) && observations.size() < told) {
+        observations.push_back({t->x, t->cost, !t->ok});
+        s.told_trials.push_back(t->trial_id);
+      } else {
+        s.untold.emplace_back(t->trial_id, bo::Observation{t->x, t->cost, !t->ok});
+      }
+    }
+  } else {
+    for (const auto* t : done) {
+      observations.push_back({t->x, t->cost, !t->ok});
+      s.told_trials.push_back(t->trial_id);
+    }
   }
   s.optimizer = std::make_shared<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
   s.model = snapshot_of(*s.optimizer, s.told_trials);
@@ -561,10 +586,15 @@ void Coordinator::start_model_jobs(const std::vector<Study*>& order, FreeSlots f
     if (s->model_busy || !s->optimizer) continue;
     int n = 0;
     int& wanted_here = wanted[explores_on_hardware(*s)];
+    int remaining = 0;
     if (s->state == "running") {
-      const int remaining = s->config.budget - s->completed - exploring_in_flight(*s) -
-                            static_cast<int>(s->proposed.size());
+      remaining = s->config.budget - s->completed - exploring_in_flight(*s) - static_cast<int>(s->proposed.size());
       n = std::max(0, std::min({remaining, wanted_here, new_budget}));
+    }
+    if (s->config.lockstep > 0) {
+      n = std::min(n, lockstep_room(*s));
+      // Telling early would change later proposals: reports wait for the ask that needs them, or for the end.
+      if (n == 0 && (remaining > 0 || lockstep_tellable(*s) == 0)) continue;
     }
     if (n == 0 && s->untold.empty()) continue;
     wanted_here -= n;
@@ -587,7 +617,96 @@ Coordinator::ModelSnapshot Coordinator::snapshot_of(const bo::BayesianOptimizer&
   return m;
 }
 
+int Coordinator::lockstep_tellable(const Study& s) {
+  std::set<int> reported;
+  for (const auto& [trial_id, observation] : s.untold) reported.insert(trial_id);
+  int next = static_cast<int>(s.told_trials.size());
+  while (reported.count(next) > 0) ++next;
+  return next - static_cast<int>(s.told_trials.size());
+}
+
+int Coordinator::lockstep_room(const Study& s) {
+  // Trial k may be proposed once trials 0..k-N-1 have reported.
+  const int next_to_propose = s.next_trial_id + static_cast<int>(s.proposed.size());
+  const int reported_prefix = static_cast<int>(s.told_trials.size()) + lockstep_tellable(s);
+  return std::max(0, reported_prefix + s.config.lockstep - next_to_propose);
+}
+
+void Coordinator::start_lockstep_model_job(Study& s, int ask) {
+  const int lag = s.config.lockstep;
+  const int told0 = static_cast<int>(s.told_trials.size());
+  const int k0 = s.next_trial_id + static_cast<int>(s.proposed.size());
+  // The points of trials told0..k0-1: reported and waiting, in flight, or proposed and not yet issued.
+  std::map<int, bo::Observation> reported(s.untold.begin(), s.untold.end());
+  std::vector<Eigen::VectorXd> xs;
+  for (int id = told0; id < k0; ++id) {
+    if (const auto r = reported.find(id); r != reported.end()) {
+      xs.push_back(r->second.x);
+    } else if (const auto f = s.in_flight.find(id); f != s.in_flight.end()) {
+      xs.push_back(f->second.x);
+    } else if (id >= s.next_trial_id) {
+      xs.push_back(s.proposed[static_cast<std::size_t>(id - s.next_trial_id)]);
+    } else {
+      warn_(fmt::format("study {}: lockstep: trial {} has no point; asking nothing this time", s.id, id));
+      return;
+    }
+  }
+  // Tells: what the last ask needs (trials up to k_last - N - 1), and at the end every reported trial.
+  const bool final_asks = k0 + ask >= s.config.budget;
+  const int tellable = lockstep_tellable(s);
+  const int needed = ask > 0 ? std::max(0, k0 + ask - 1 - lag - told0) : 0;
+  const int tells_count = final_asks ? tellable : std::min(needed, tellable);
+  std::vector<bo::Observation> tells;
+  for (int i = 0; i < tells_count; ++i) {
+    tells.push_back(reported.at(told0 + i));
+    s.told_trials.push_back(told0 + i);
+  }
+  s.untold.erase(std::remove_if(s.untold.begin(), s.untold.end(),
+                                [&](const auto& kv) { return kv.first < told0 + tells_count; }),
+                 s.untold.end());
+  s.model_busy = true;
+  s.asking = ask;
+  const int id = s.id;
+  auto work = [this, id, optimizer = s.optimizer, told_trials = s.told_trials, tells = std::move(tells),
+               xs = std::move(xs), ask, lag, told0, k0]() mutable -> ModelPool::Completion {
+    if (options_.model_job_hook) options_.model_job_hook(id);
+    std::vector<Eigen::VectorXd> points;
+    std::string error;
+    std::optional<std::pair<ModelSnapshot, nlohmann::json>> fitted;
+    try {
+      int told = told0;
+      auto tell_next = [&] { optimizer->tell_batch({tells[static_cast<std::size_t>(told++ - told0)]}); };
+      for (int k = k0; k < k0 + ask; ++k) {
+        while (told < k - lag) tell_next();  // exactly trials 0..k-N-1, one fit each, in trial order
+        std::vector<Eigen::VectorXd> pending(xs.begin() + (told - told0), xs.end());  // trials told..k-1
+        const Eigen::VectorXd x = optimizer->ask(1, pending).front();
+        points.push_back(x);
+        xs.push_back(x);
+      }
+      while (told < told0 + static_cast<int>(tells.size())) tell_next();
+      if (!tells.empty()) fitted.emplace(snapshot_of(*optimizer, told_trials), model_state_json(optimizer->model_state()));
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    return [this, id, fitted = std::move(fitted), points = std::move(points), ask, error] {
+      Study* study = find_study(id);
+      if (study == nullptr) return;
+      study->model_busy = false;
+      study->asking = 0;
+      if (fitted) {
+        store_.save_model_state(id, fitted->second);
+        study->model = fitted->first;
+        study->dirty = true;
+      }
+      if (!error.empty()) warn_(fmt::format("study {}: lockstep model job (ask({})) failed: {}", id, ask, error));
+      study->proposed.insert(study->proposed.end(), points.begin(), points.end());
+    };
+  };
+  models_.submit(static_cast<std::uint64_t>(id), std::move(work));
+}
+
 void Coordinator::start_model_job(Study& s, int ask) {
+  if (s.config.lockstep > 0) return start_lockstep_model_job(s, ask);
   // Everything the job needs is copied now: it runs while the event thread goes on changing the study.
   std::vector<bo::Observation> tells;
   for (auto& [trial_id, observation] : s.untold) {

@@ -33,7 +33,8 @@ constexpr double kMaxRolloutPartS = 3600.0;  // entrainment or evaluation, secon
 
 StudyConfig parse(const YamlReader& r) {
   r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
-                         "cost_transform", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation"});
+                         "cost_transform", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation",
+                         "lockstep"});
   StudyConfig s;
   // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");
@@ -68,6 +69,8 @@ StudyConfig parse(const YamlReader& r) {
     s.eval_s = ro.get_double_in("eval_s", s.eval_s, 0.01, kMaxRolloutPartS);
   }
   s.lease_s = r.get_double_in("lease_s", 0.0, 0.0, 86400.0);  // 0: derived from the rollout length
+  s.lockstep_given = r.has("lockstep");
+  s.lockstep = r.get_int_in("lockstep", 0, 0, 1024);  // more rollouts at once than this is a cluster: go async
   const std::string explore_on = r.get_string("explore_on", "simulation");
   if (explore_on == "hardware") {
     s.explore_on = WorkerKindWanted::kHardware;

@@ -190,6 +190,11 @@ class Coordinator {
     return s.config.explore_on == study::WorkerKindWanted::kHardware;
   }
   static int exploring_in_flight(const Study& s);
+  // Lockstep studies (StudyConfig::lockstep): reported trials that continue the told prefix without a gap,
+  // how many more trials may be proposed now, and the model job that tells and asks in trial order.
+  static int lockstep_tellable(const Study& s);
+  static int lockstep_room(const Study& s);
+  void start_lockstep_model_job(Study& s, int ask);
   bool has_hardware_worker() const;
   // Stores the validation sets once the exploration is complete and told; true when it did.
   bool start_validation_if_due(Study& study);

@@ -45,6 +45,12 @@ struct StudyConfig {
   double lease_s = 0.0;
   WorkerKindWanted explore_on = WorkerKindWanted::kSimulation;
   ValidationConfig validation;
+  // Reproducible parallelism: with lockstep N > 0, trial k is proposed from exactly the results of trials
+  // 0..k-N-1, told in trial order one at a time, with trials k-N..k-1 pending. At most N rollouts then run
+  // at once and the study is a function of its seed and N alone, whatever order the reports arrive in.
+  // 0: asynchronous (reports told as they arrive, every free slot filled at once; not reproducible).
+  int lockstep = 0;
+  bool lockstep_given = false;  // the file says lockstep (study run sets it to its worker count otherwise)
   double effective_lease_s() const { return lease_s > 0.0 ? lease_s : 60.0 + 3.0 * (entrain_s + eval_s); }
 };
 
