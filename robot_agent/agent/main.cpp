@@ -16,7 +16,6 @@
 #include <chrono>
 #include <condition_variable>
 #include <csignal>
-#include <deque>
 #include <iostream>
 #include <mutex>
 #include <optional>
@@ -33,6 +32,7 @@
 #include "cpgmatch/dds/json.hpp"
 #include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/worker/candidate_queue.hpp"
 #include "hardware_runner.hpp"
 
 namespace cpgmatch::robot {
@@ -159,8 +159,9 @@ class HardwareWorker {
         participant_(dds::ParticipantConfig{o.domain, "cpgmatch-robot-agent " + o.id, o.localhost_only, {}}),
         reports_(participant_),
         announcements_(participant_),
+        queue_(o.id),
         candidates_(participant_, "candidates_for_" + o.id, "worker_id = %0", {"'" + o.id + "'"},
-                    [this](const msg::Candidate& c) { accept(c); }) {
+                    [this](const msg::Candidate& c) { queue_.offer(c); }) {
     rollout_thread_ = std::thread([this] { rollout_loop(); });
   }
 
@@ -176,48 +177,19 @@ class HardwareWorker {
       wake_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [] { return g_stop != 0; });
     }
     announce(false);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      draining_ = true;
-      queue_.clear();
-      wake_.notify_all();
-    }
+    queue_.drain();
     rollout_thread_.join();
     std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the last report go out reliably
     announcements_.unregister(last_announcement_);
-    spdlog::info("robot agent {}: {} rollouts done, bye", options_.id, completed_);
+    spdlog::info("robot agent {}: {} rollouts done, bye", options_.id, queue_.load().completed);
   }
 
  private:
-  void accept(const msg::Candidate& c) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (draining_) return;
-    for (const auto& q : queue_) {
-      if (q.store_id() == c.store_id() && q.study_id() == c.study_id() && q.trial_id() == c.trial_id() &&
-          q.attempt() == c.attempt()) {
-        return;
-      }
-    }
-    queue_.push_back(c);
-    wake_.notify_all();
-  }
-
   void rollout_loop() {
-    while (true) {
-      msg::Candidate c;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return draining_ || !queue_.empty(); });
-        if (draining_) return;
-        c = queue_.front();
-        queue_.pop_front();
-        busy_ = 1;
-      }
-      msg::RolloutReport report = execute(c);
-      std::lock_guard<std::mutex> lock(mutex_);
+    while (const std::optional<msg::Candidate> c = queue_.take()) {
+      const msg::RolloutReport report = execute(*c);
       reports_.write(report);
-      busy_ = 0;
-      ++completed_;
+      queue_.finish(*c);
     }
   }
 
@@ -272,11 +244,9 @@ class HardwareWorker {
     a.slots(1);
     a.heartbeat_period_s(options_.heartbeat_s);
     a.accepting(accepting);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      a.busy(busy_);
-      a.completed(completed_);
-    }
+    const worker::CandidateQueue::Load load = queue_.load();
+    a.busy(load.busy);
+    a.completed(load.completed);
     announcements_.write(a);
     last_announcement_ = a;
   }
@@ -290,12 +260,9 @@ class HardwareWorker {
   dds::Participant participant_;
   dds::Writer<msg::RolloutReport> reports_;
   dds::Writer<msg::WorkerAnnouncement> announcements_;
-  std::mutex mutex_;
+  worker::CandidateQueue queue_;
+  std::mutex mutex_;               // the heartbeat's sleep
   std::condition_variable wake_;
-  std::deque<msg::Candidate> queue_;
-  std::uint32_t busy_ = 0;
-  std::uint64_t completed_ = 0;
-  bool draining_ = false;
   msg::WorkerAnnouncement last_announcement_;
   std::thread rollout_thread_;
   // Last: its callback uses everything above.

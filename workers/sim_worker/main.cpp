@@ -16,7 +16,7 @@
 #include <iterator>
 #include <map>
 #include <mutex>
-#include <set>
+#include <optional>
 #include <tuple>
 #include <thread>
 
@@ -31,6 +31,7 @@
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
+#include "cpgmatch/worker/candidate_queue.hpp"
 #include "rollout_slot.hpp"
 
 namespace cpgmatch::worker {
@@ -61,8 +62,9 @@ class SimWorker {
         participant_(dds::ParticipantConfig{o.domain, "cpgmatch-sim-worker " + o.id, o.localhost_only}),
         reports_(participant_),
         announcements_(participant_),
+        queue_(o.id),
         candidates_(participant_, "candidates_for_" + o.id, "worker_id = %0", {"'" + o.id + "'"},
-                    [this](const msg::Candidate& c) { accept(c); }),
+                    [this](const msg::Candidate& c) { queue_.offer(c); }),
         // The content filter cannot read a dispose (a key-only sample), so disposes come through an
         // unfiltered reader: the candidates of other workers are only remembered until their dispose.
         acknowledgements_(participant_, {}, [this](const msg::Candidate& key, dds::InstanceGone gone) {
@@ -88,17 +90,6 @@ class SimWorker {
   }
 
  private:
-  void accept(const msg::Candidate& c) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (draining_) return;  // the optimizer re-issues it once we have left
-    // Dropped only while the very same issue (store, study, trial, attempt) is queued or running: DDS may deliver
-    // a sample twice. A re-issue (a higher attempt, e.g. after our report was lost) runs again, and so does
-    // a trial of a fresh store that reuses ids we saw long ago. The optimizer counts each trial once anyway.
-    if (!in_progress_.insert(issue_key(c)).second) return;
-    queue_.push_back(c);
-    wake_.notify_all();
-  }
-
   void report_acknowledged(const msg::Candidate& key) {
     std::lock_guard<std::mutex> lock(mutex_);
     const auto it = kept_.find({key.store_id(), key.study_id(), key.trial_id()});
@@ -108,38 +99,31 @@ class SimWorker {
   }
 
   void slot_loop() {
-    while (true) {
-      msg::Candidate c;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return draining_ || !queue_.empty(); });
-        if (draining_) return;
-        c = queue_.front();
-        queue_.pop_front();
-        ++busy_;
+    while (const std::optional<msg::Candidate> c = queue_.take()) {
+      const msg::RolloutReport report = execute_candidate(*c, slot_options_);
+      if (!report.ok()) spdlog::warn("study {} trial {}: {}", c->study_id(), c->trial_id(), report.error().to_string());
+      write_report(report);
+      queue_.finish(*c);
+    }
+  }
+
+  void write_report(const msg::RolloutReport& report) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!reports_.write(report)) spdlog::error("study {} trial {}: report write failed", report.study_id(), report.trial_id());
+    const ReportKey key{report.store_id(), report.study_id(), report.trial_id()};
+    kept_[key] = report;
+    kept_order_.push_back(key);
+    if (kept_order_.size() > 2 * kReportsKept) {  // drop the acknowledged ones from the order
+      std::deque<ReportKey> live;
+      for (const auto& k : kept_order_) if (kept_.count(k)) live.push_back(k);
+      kept_order_.swap(live);
+    }
+    while (kept_.size() > kReportsKept) {
+      if (const auto oldest = kept_.find(kept_order_.front()); oldest != kept_.end()) {
+        reports_.unregister(oldest->second);
+        kept_.erase(oldest);
       }
-      const msg::RolloutReport report = execute_candidate(c, slot_options_);
-      if (!report.ok()) spdlog::warn("study {} trial {}: {}", c.study_id(), c.trial_id(), report.error().to_string());
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!reports_.write(report)) spdlog::error("study {} trial {}: report write failed", c.study_id(), c.trial_id());
-      in_progress_.erase(issue_key(c));
-      const ReportKey key{report.store_id(), report.study_id(), report.trial_id()};
-      kept_[key] = report;
-      kept_order_.push_back(key);
-      if (kept_order_.size() > 2 * kReportsKept) {  // drop the acknowledged ones from the order
-        std::deque<ReportKey> live;
-        for (const auto& k : kept_order_) if (kept_.count(k)) live.push_back(k);
-        kept_order_.swap(live);
-      }
-      while (kept_.size() > kReportsKept) {
-        if (const auto oldest = kept_.find(kept_order_.front()); oldest != kept_.end()) {
-          reports_.unregister(oldest->second);
-          kept_.erase(oldest);
-        }
-        kept_order_.pop_front();
-      }
-      --busy_;
-      ++completed_;
+      kept_order_.pop_front();
     }
   }
 
@@ -153,32 +137,24 @@ class SimWorker {
     a.slots(static_cast<std::uint32_t>(options_.slots));
     a.heartbeat_period_s(options_.heartbeat_s);
     a.accepting(accepting);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      a.busy(static_cast<std::uint32_t>(busy_));
-      a.completed(completed_);
-    }
+    const CandidateQueue::Load load = queue_.load();
+    a.busy(load.busy);
+    a.completed(load.completed);
     announcements_.write(a);
     last_announcement_ = a;
   }
 
   void shutdown() {
-    spdlog::info("worker {}: stopping; finishing {} running rollouts", options_.id, busy_);
+    spdlog::info("worker {}: stopping; finishing {} running rollouts", options_.id, queue_.load().busy);
     announce(false);
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      const std::size_t handed_back = queue_.size();
-      queue_.clear();
-      draining_ = true;
-      wake_.notify_all();
-      if (handed_back) spdlog::info("worker {}: handing back {} queued candidates", options_.id, handed_back);
-    }
+    const std::size_t handed_back = queue_.drain();
+    if (handed_back) spdlog::info("worker {}: handing back {} queued candidates", options_.id, handed_back);
     for (auto& t : slots_) t.join();
     // Give reliable delivery of the last reports a moment before the writer goes away.
     reports_.matched().wait_for(1, std::chrono::milliseconds(0));
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
     announcements_.unregister(last_announcement_);
-    spdlog::info("worker {}: {} rollouts done, bye", options_.id, completed_);
+    spdlog::info("worker {}: {} rollouts done, bye", options_.id, queue_.load().completed);
   }
 
   Options options_;
@@ -187,20 +163,12 @@ class SimWorker {
   dds::Participant participant_;
   dds::Writer<msg::RolloutReport> reports_;
   dds::Writer<msg::WorkerAnnouncement> announcements_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<msg::Candidate> queue_;
-  using IssueKey = std::tuple<std::uint64_t, std::uint32_t, std::uint32_t, std::uint32_t>;  // store, study, trial, attempt
-  static IssueKey issue_key(const msg::Candidate& c) {
-    return {c.store_id(), c.study_id(), c.trial_id(), c.attempt()};
-  }
-  std::set<IssueKey> in_progress_;  // queued or running: bounded by the slots and the queue
+  CandidateQueue queue_;
+  std::mutex mutex_;               // the report writer and the kept reports
+  std::condition_variable wake_;   // the heartbeat's sleep
   using ReportKey = std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>;  // store, study, trial: the topic's key
   std::map<ReportKey, msg::RolloutReport> kept_;              // written, not yet acknowledged
   std::deque<ReportKey> kept_order_;                           // in writing order (may name acknowledged ones)
-  int busy_ = 0;
-  std::uint64_t completed_ = 0;
-  bool draining_ = false;
   msg::WorkerAnnouncement last_announcement_;
   std::vector<std::thread> slots_;
   // Last: the readers' callbacks use everything above, so they must be created after and destroyed first.
