@@ -1,6 +1,6 @@
 // The candidates a worker has accepted and not yet reported: what the simulation worker's slots and the
-// robot agent's rollout thread both take their work from. No DDS entities here (the program's DDS shell
-// offers what its reader receives), so the rules below are tested without a network.
+// robot agent's rollout thread both take their work from. No DDS entities here (the DDS shell,
+// worker_link.hpp, offers what its reader receives), so the rules below are tested without a network.
 //
 //   CandidateQueue queue("node12");
 //   reader callback:  queue.offer(candidate);
