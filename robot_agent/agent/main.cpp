@@ -14,10 +14,8 @@
 #include <atomic>
 #include <cstdint>
 #include <chrono>
-#include <condition_variable>
 #include <csignal>
 #include <iostream>
-#include <mutex>
 #include <optional>
 #include <thread>
 
@@ -30,9 +28,9 @@
 #include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/json.hpp"
-#include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/worker/candidate_queue.hpp"
+#include "cpgmatch/worker/worker_link.hpp"
 #include "hardware_runner.hpp"
 
 namespace cpgmatch::robot {
@@ -148,7 +146,9 @@ int run_once(const Options& o, HardwareRunner& runner, const RolloutSettings& se
   return h.ok ? kExitOk : kExitFailure;
 }
 
-// The DDS worker: one rollout at a time on its own thread (the real-time thread); heartbeats here.
+// The DDS worker: one rollout at a time on its own thread (the real-time thread). Candidates, reports
+// (released once the optimizer acknowledges them) and heartbeats are the WorkerLink every worker shares;
+// running a candidate on the robot is this class's own.
 class HardwareWorker {
  public:
   HardwareWorker(const Options& o, HardwareRunner& runner, RolloutSettings settings, CpgParameters base)
@@ -156,39 +156,33 @@ class HardwareWorker {
         runner_(runner),
         settings_(std::move(settings)),
         base_params_(base),
-        participant_(dds::ParticipantConfig{o.domain, "cpgmatch-robot-agent " + o.id, o.localhost_only, {}}),
-        reports_(participant_),
-        announcements_(participant_),
         queue_(o.id),
-        candidates_(participant_, "candidates_for_" + o.id, "worker_id = %0", {"'" + o.id + "'"},
-                    [this](const msg::Candidate& c) { queue_.offer(c); }) {
+        link_(worker::WorkerLinkConfig{o.domain, o.id, "cpgmatch-robot-agent " + o.id, o.localhost_only,
+                                       msg::WORKER_HARDWARE, 1, o.heartbeat_s, host_name()},
+              queue_) {
     rollout_thread_ = std::thread([this] { rollout_loop(); });
   }
 
   void run() {
-    char host[256] = "robot";
-    gethostname(host, sizeof(host) - 1);
-    host_ = host;
     spdlog::info("robot agent {} on domain {}: hardware worker, capacity 1", options_.id, options_.domain);
     SignalWatch watch(runner_);
-    while (!g_stop) {
-      announce(true);
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [] { return g_stop != 0; });
-    }
-    announce(false);
+    link_.heartbeat_until([] { return g_stop != 0; });
     queue_.drain();
     rollout_thread_.join();
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the last report go out reliably
-    announcements_.unregister(last_announcement_);
+    link_.leave();
     spdlog::info("robot agent {}: {} rollouts done, bye", options_.id, queue_.load().completed);
   }
 
  private:
+  static std::string host_name() {
+    char host[256] = "robot";
+    gethostname(host, sizeof(host) - 1);
+    return host;
+  }
+
   void rollout_loop() {
     while (const std::optional<msg::Candidate> c = queue_.take()) {
-      const msg::RolloutReport report = execute(*c);
-      reports_.write(report);
+      link_.publish(execute(*c));
       queue_.finish(*c);
     }
   }
@@ -234,39 +228,14 @@ class HardwareWorker {
     return r;
   }
 
-  void announce(bool accepting) {
-    msg::WorkerAnnouncement a;
-    a.worker_key(dds::worker_key(options_.id));
-    a.worker_id(options_.id);
-    a.kind(msg::WORKER_HARDWARE);
-    a.host(host_);
-    a.pid(static_cast<std::uint32_t>(getpid()));
-    a.slots(1);
-    a.heartbeat_period_s(options_.heartbeat_s);
-    a.accepting(accepting);
-    const worker::CandidateQueue::Load load = queue_.load();
-    a.busy(load.busy);
-    a.completed(load.completed);
-    announcements_.write(a);
-    last_announcement_ = a;
-  }
-
   Options options_;
   HardwareRunner& runner_;
   RolloutSettings settings_;
   CpgParameters base_params_;
-  std::string host_;
   bool warned_ = false;
-  dds::Participant participant_;
-  dds::Writer<msg::RolloutReport> reports_;
-  dds::Writer<msg::WorkerAnnouncement> announcements_;
   worker::CandidateQueue queue_;
-  std::mutex mutex_;               // the heartbeat's sleep
-  std::condition_variable wake_;
-  msg::WorkerAnnouncement last_announcement_;
+  worker::WorkerLink link_;  // after the queue: its readers feed the queue from the moment it exists
   std::thread rollout_thread_;
-  // Last: its callback uses everything above.
-  dds::Reader<msg::Candidate> candidates_;
 };
 
 }  // namespace
