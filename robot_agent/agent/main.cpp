@@ -3,6 +3,7 @@
 // feedback, contact sensing and cost code as the simulation (common/), returning the same reports.
 //
 //   cpgmatch-robot-agent --domain 7 --can socketcan:can0 [--robot ROBOT.yaml] [--id morti]
+//                        [--dds-profile local|cluster|FILE] [--discovery-server IP:PORT] [--keystore DIR --enclave NAME]
 //   cpgmatch-robot-agent --can udp:127.0.0.1:47000 --run-once [--params F] [--entrain S] [--eval S] [--json]
 //
 // --run-once runs one rollout without DDS and prints it (JSON: the report's fields plus the loop's
@@ -29,6 +30,8 @@
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/json.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/worker/candidate_queue.hpp"
 #include "cpgmatch/worker/worker_link.hpp"
 #include "hardware_runner.hpp"
@@ -57,10 +60,8 @@ struct Options {
   double heartbeat_s = 0.5;
 };
 
-std::string config_path(const std::string& relative) {
-  const char* env = std::getenv("CPGMATCH_CONFIG_DIR");
-  return (env && *env ? std::string(env) : std::string(CPGMATCH_CONFIG_DIR)) + "/" + relative;
-}
+// The shipped configs: $CPGMATCH_CONFIG_DIR, else an installed prefix's, else the source tree's.
+std::string config_path(const std::string& relative) { return (runtime::config_dir() / relative).string(); }
 
 msg::RolloutReport to_report(const HardwareRollout& h) {
   msg::RolloutReport r;
@@ -262,6 +263,11 @@ int main(int argc, char** argv) {
   app.add_option("--eval", o.eval_s, "--run-once: evaluation seconds (default: the settings')");
   app.add_option("--seed", o.seed, "--run-once: seed of the contact-sensor noise");
   app.add_flag("--json", o.json, "--run-once: one JSON object");
+  // The same DDS flags as every other participant; the robot agent is a worker in a study's keystore
+  // (deploy/make-study-pki.sh KEYSTORE morti:worker, then --enclave morti). --run-once uses no DDS.
+  runtime::DdsFlags dds_flags;
+  runtime::add_dds_flags(app, dds_flags, "worker");
+  runtime::add_version_flag(app, "cpgmatch-robot-agent");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -269,6 +275,7 @@ int main(int argc, char** argv) {
   }
   spdlog::set_default_logger(spdlog::stderr_color_mt("agent"));
   return run_reporting_errors([&] {
+    runtime::export_config_dir();
     if (o.robot_path.empty()) o.robot_path = config_path("robot/morti.yaml");
     if (o.settings_path.empty()) o.settings_path = config_path("rollout.yaml");
     if (o.params_path.empty()) o.params_path = config_path("params/default.yaml");
@@ -277,6 +284,20 @@ int main(int argc, char** argv) {
     if (o.entrain_s >= 0.0) settings.entrain_s = o.entrain_s;
     if (o.eval_s >= 0.0) settings.eval_s = o.eval_s;
     if (!(settings.eval_s > 0.0)) throw InputError("--eval must be > 0");
+    if (!o.run_once) {
+      // Flags are checked before the bus opens (a cluster profile without servers only when the participant
+      // is made, still before any motor is enabled): bad input never gets as far as the motors.
+      runtime::apply_dds_flags(dds_flags);
+      if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
+      cpgmatch::dds::validate_domain(o.domain);
+      if (o.id.empty()) {
+        char host[256] = "host";
+        gethostname(host, sizeof(host) - 1);
+        o.id = fmt::format("{}-robot", host);
+      }
+      if (o.id.size() > 63) throw InputError(fmt::format("--id: at most 63 characters, got {}", o.id.size()));
+      if (o.id.find('\'') != std::string::npos) throw InputError("--id must not contain a quote");
+    }
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     HardwareRunnerOptions ro;
@@ -286,15 +307,6 @@ int main(int argc, char** argv) {
     ro.lockstep = o.lockstep;
     HardwareRunner runner(ro);
     if (o.run_once) return run_once(o, runner, settings, params);
-    if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
-    cpgmatch::dds::validate_domain(o.domain);
-    if (o.id.empty()) {
-      char host[256] = "host";
-      gethostname(host, sizeof(host) - 1);
-      o.id = fmt::format("{}-robot", host);
-    }
-    if (o.id.size() > 63) throw InputError(fmt::format("--id: at most 63 characters, got {}", o.id.size()));
-    if (o.id.find('\'') != std::string::npos) throw InputError("--id must not contain a quote");
     HardwareWorker worker(o, runner, settings, params);
     worker.run();
     return kExitOk;
