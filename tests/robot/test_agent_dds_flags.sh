@@ -57,8 +57,10 @@ hardware_reports_from() {  # hardware_reports_from STORE ID
 # No --localhost-only anywhere: the cluster profile is a discovery-server client with multicast off, so the
 # processes can only meet through the server.
 DS_PORT=$(free_udp_port)
-fastdds discovery -i 0 -l 127.0.0.1 -p "$DS_PORT" >"$WORK/discovery.log" 2>&1 &
-PIDS+=($!)
+# The server binary itself (fastdds-tools), not the `fastdds discovery` wrapper: the wrapper runs it as a
+# child, which the cleanup's SIGKILL of the wrapper would leave running.
+fast-discovery-server -i 0 -l 127.0.0.1 -p "$DS_PORT" >"$WORK/discovery.log" 2>&1 &
+DS_PID=$!; PIDS+=("$DS_PID")
 CLUSTER=(--dds-profile cluster --discovery-server "127.0.0.1:$DS_PORT")
 "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --store "$WORK/cluster.db" "${CLUSTER[@]}" >>"$WORK/optimizer-cluster.log" 2>&1 &
 OPT_PID=$!; PIDS+=("$OPT_PID")
@@ -70,7 +72,7 @@ n=$(hardware_reports_from "$WORK/cluster.db" morti-cluster)
 [[ $n == 2 ]] || fail "cluster study: expected 2 ok hardware reports from morti-cluster, got $n"
 grep -q "Participant Type:   SERVER" "$WORK/discovery.log" || fail "the discovery server did not start: $(cat "$WORK/discovery.log")"
 stop_agent
-kill -TERM "$OPT_PID"; wait "$OPT_PID" || true
+kill -TERM "$OPT_PID" "$DS_PID"; wait "$OPT_PID" "$DS_PID" || true
 
 # ---- DDS-Security: the agent as the keystore's worker identity 'morti' -----------------------------------
 "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --store "$WORK/secure.db" --localhost-only --keystore "$KS" \
