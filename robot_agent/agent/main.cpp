@@ -3,6 +3,7 @@
 // feedback, contact sensing and cost code as the simulation (common/), returning the same reports.
 //
 //   cpgmatch-robot-agent --domain 7 --can socketcan:can0 [--robot ROBOT.yaml] [--id morti]
+//                        [--dds-profile local|cluster|FILE] [--discovery-server IP:PORT] [--keystore DIR --enclave NAME]
 //   cpgmatch-robot-agent --can udp:127.0.0.1:47000 --run-once [--params F] [--entrain S] [--eval S] [--json]
 //
 // --run-once runs one rollout without DDS and prints it (JSON: the report's fields plus the loop's
@@ -14,11 +15,8 @@
 #include <atomic>
 #include <cstdint>
 #include <chrono>
-#include <condition_variable>
 #include <csignal>
-#include <deque>
 #include <iostream>
-#include <mutex>
 #include <optional>
 #include <thread>
 
@@ -31,8 +29,11 @@
 #include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/json.hpp"
-#include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/shared_flags.hpp"
+#include "cpgmatch/worker/candidate_queue.hpp"
+#include "cpgmatch/worker/worker_link.hpp"
 #include "hardware_runner.hpp"
 
 namespace cpgmatch::robot {
@@ -59,10 +60,8 @@ struct Options {
   double heartbeat_s = 0.5;
 };
 
-std::string config_path(const std::string& relative) {
-  const char* env = std::getenv("CPGMATCH_CONFIG_DIR");
-  return (env && *env ? std::string(env) : std::string(CPGMATCH_CONFIG_DIR)) + "/" + relative;
-}
+// The shipped configs: $CPGMATCH_CONFIG_DIR, else an installed prefix's, else the source tree's.
+std::string config_path(const std::string& relative) { return (runtime::config_dir() / relative).string(); }
 
 msg::RolloutReport to_report(const HardwareRollout& h) {
   msg::RolloutReport r;
@@ -148,7 +147,9 @@ int run_once(const Options& o, HardwareRunner& runner, const RolloutSettings& se
   return h.ok ? kExitOk : kExitFailure;
 }
 
-// The DDS worker: one rollout at a time on its own thread (the real-time thread); heartbeats here.
+// The DDS worker: one rollout at a time on its own thread (the real-time thread). Candidates, reports
+// (released once the optimizer acknowledges them) and heartbeats are the WorkerLink every worker shares;
+// running a candidate on the robot is this class's own.
 class HardwareWorker {
  public:
   HardwareWorker(const Options& o, HardwareRunner& runner, RolloutSettings settings, CpgParameters base)
@@ -156,68 +157,34 @@ class HardwareWorker {
         runner_(runner),
         settings_(std::move(settings)),
         base_params_(base),
-        participant_(dds::ParticipantConfig{o.domain, "cpgmatch-robot-agent " + o.id, o.localhost_only, {}}),
-        reports_(participant_),
-        announcements_(participant_),
-        candidates_(participant_, "candidates_for_" + o.id, "worker_id = %0", {"'" + o.id + "'"},
-                    [this](const msg::Candidate& c) { accept(c); }) {
+        queue_(o.id),
+        link_(worker::WorkerLinkConfig{o.domain, o.id, "cpgmatch-robot-agent " + o.id, o.localhost_only,
+                                       msg::WORKER_HARDWARE, 1, o.heartbeat_s, host_name()},
+              queue_) {
     rollout_thread_ = std::thread([this] { rollout_loop(); });
   }
 
   void run() {
-    char host[256] = "robot";
-    gethostname(host, sizeof(host) - 1);
-    host_ = host;
     spdlog::info("robot agent {} on domain {}: hardware worker, capacity 1", options_.id, options_.domain);
     SignalWatch watch(runner_);
-    while (!g_stop) {
-      announce(true);
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [] { return g_stop != 0; });
-    }
-    announce(false);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      draining_ = true;
-      queue_.clear();
-      wake_.notify_all();
-    }
+    link_.heartbeat_until([] { return g_stop != 0; });
+    queue_.drain();
     rollout_thread_.join();
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the last report go out reliably
-    announcements_.unregister(last_announcement_);
-    spdlog::info("robot agent {}: {} rollouts done, bye", options_.id, completed_);
+    link_.leave();
+    spdlog::info("robot agent {}: {} rollouts done, bye", options_.id, queue_.load().completed);
   }
 
  private:
-  void accept(const msg::Candidate& c) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (draining_) return;
-    for (const auto& q : queue_) {
-      if (q.store_id() == c.store_id() && q.study_id() == c.study_id() && q.trial_id() == c.trial_id() &&
-          q.attempt() == c.attempt()) {
-        return;
-      }
-    }
-    queue_.push_back(c);
-    wake_.notify_all();
+  static std::string host_name() {
+    char host[256] = "robot";
+    gethostname(host, sizeof(host) - 1);
+    return host;
   }
 
   void rollout_loop() {
-    while (true) {
-      msg::Candidate c;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return draining_ || !queue_.empty(); });
-        if (draining_) return;
-        c = queue_.front();
-        queue_.pop_front();
-        busy_ = 1;
-      }
-      msg::RolloutReport report = execute(c);
-      std::lock_guard<std::mutex> lock(mutex_);
-      reports_.write(report);
-      busy_ = 0;
-      ++completed_;
+    while (const std::optional<msg::Candidate> c = queue_.take()) {
+      link_.publish(execute(*c));
+      queue_.finish(*c);
     }
   }
 
@@ -262,44 +229,14 @@ class HardwareWorker {
     return r;
   }
 
-  void announce(bool accepting) {
-    msg::WorkerAnnouncement a;
-    a.worker_key(dds::worker_key(options_.id));
-    a.worker_id(options_.id);
-    a.kind(msg::WORKER_HARDWARE);
-    a.host(host_);
-    a.pid(static_cast<std::uint32_t>(getpid()));
-    a.slots(1);
-    a.heartbeat_period_s(options_.heartbeat_s);
-    a.accepting(accepting);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      a.busy(busy_);
-      a.completed(completed_);
-    }
-    announcements_.write(a);
-    last_announcement_ = a;
-  }
-
   Options options_;
   HardwareRunner& runner_;
   RolloutSettings settings_;
   CpgParameters base_params_;
-  std::string host_;
   bool warned_ = false;
-  dds::Participant participant_;
-  dds::Writer<msg::RolloutReport> reports_;
-  dds::Writer<msg::WorkerAnnouncement> announcements_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<msg::Candidate> queue_;
-  std::uint32_t busy_ = 0;
-  std::uint64_t completed_ = 0;
-  bool draining_ = false;
-  msg::WorkerAnnouncement last_announcement_;
+  worker::CandidateQueue queue_;
+  worker::WorkerLink link_;  // after the queue: its readers feed the queue from the moment it exists
   std::thread rollout_thread_;
-  // Last: its callback uses everything above.
-  dds::Reader<msg::Candidate> candidates_;
 };
 
 }  // namespace
@@ -326,6 +263,11 @@ int main(int argc, char** argv) {
   app.add_option("--eval", o.eval_s, "--run-once: evaluation seconds (default: the settings')");
   app.add_option("--seed", o.seed, "--run-once: seed of the contact-sensor noise");
   app.add_flag("--json", o.json, "--run-once: one JSON object");
+  // The same DDS flags as every other participant; the robot agent is a worker in a study's keystore
+  // (deploy/make-study-pki.sh KEYSTORE morti:worker, then --enclave morti). --run-once uses no DDS.
+  runtime::DdsFlags dds_flags;
+  runtime::add_dds_flags(app, dds_flags, "worker");
+  runtime::add_version_flag(app, "cpgmatch-robot-agent");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -333,6 +275,7 @@ int main(int argc, char** argv) {
   }
   spdlog::set_default_logger(spdlog::stderr_color_mt("agent"));
   return run_reporting_errors([&] {
+    runtime::export_config_dir();
     if (o.robot_path.empty()) o.robot_path = config_path("robot/morti.yaml");
     if (o.settings_path.empty()) o.settings_path = config_path("rollout.yaml");
     if (o.params_path.empty()) o.params_path = config_path("params/default.yaml");
@@ -341,6 +284,20 @@ int main(int argc, char** argv) {
     if (o.entrain_s >= 0.0) settings.entrain_s = o.entrain_s;
     if (o.eval_s >= 0.0) settings.eval_s = o.eval_s;
     if (!(settings.eval_s > 0.0)) throw InputError("--eval must be > 0");
+    if (!o.run_once) {
+      // Flags are checked before the bus opens (a cluster profile without servers only when the participant
+      // is made, still before any motor is enabled): bad input never gets as far as the motors.
+      runtime::apply_dds_flags(dds_flags);
+      if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
+      cpgmatch::dds::validate_domain(o.domain);
+      if (o.id.empty()) {
+        char host[256] = "host";
+        gethostname(host, sizeof(host) - 1);
+        o.id = fmt::format("{}-robot", host);
+      }
+      if (o.id.size() > 63) throw InputError(fmt::format("--id: at most 63 characters, got {}", o.id.size()));
+      if (o.id.find('\'') != std::string::npos) throw InputError("--id must not contain a quote");
+    }
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     HardwareRunnerOptions ro;
@@ -350,15 +307,6 @@ int main(int argc, char** argv) {
     ro.lockstep = o.lockstep;
     HardwareRunner runner(ro);
     if (o.run_once) return run_once(o, runner, settings, params);
-    if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
-    cpgmatch::dds::validate_domain(o.domain);
-    if (o.id.empty()) {
-      char host[256] = "host";
-      gethostname(host, sizeof(host) - 1);
-      o.id = fmt::format("{}-robot", host);
-    }
-    if (o.id.size() > 63) throw InputError(fmt::format("--id: at most 63 characters, got {}", o.id.size()));
-    if (o.id.find('\'') != std::string::npos) throw InputError("--id must not contain a quote");
     HardwareWorker worker(o, runner, settings, params);
     worker.run();
     return kExitOk;

@@ -23,6 +23,8 @@
 #include "cpgmatch/robot/realtime.hpp"
 #include "cpgmatch/robot/robot_config.hpp"
 #include "cpgmatch/robot/robot_device.hpp"
+#include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/sim/ode_plant.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 
@@ -191,12 +193,14 @@ int main(int argc, char** argv) {
   app.add_option("--backlash", o.imperfections.backlash_rad, "gear play between encoder and joint, rad (total)")->check(CLI::Range(0.0, 0.5));
   app.add_option("--extra-friction", o.extra_friction_nm, "dry friction added to every hip gearbox and knee bearing, N m")
       ->check(CLI::Range(0.0, 5.0));
+  runtime::add_version_flag(app, "cpgmatch-robot-emulator");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? kExitOk : kExitBadInput;
   }
   return run_reporting_errors([&] {
+    runtime::export_config_dir();  // the default model and robot YAML of an installed prefix, too
     if (o.model_path.empty()) o.model_path = sim::default_model_path();
     if (o.robot_path.empty()) o.robot_path = default_robot_config_path();
     o.imperfections.latency_s = o.latency_ms / 1000.0;

@@ -19,6 +19,7 @@ for needed in fastdds-tools libfastrtps2.9 libode8 libsqlite3-0 libyaml-cpp0.7 l
 done
 dpkg-deb -x "$deb" "$WORK/root"
 for f in usr/bin/cpgmatch usr/bin/cpgmatch-optimizer usr/bin/cpgmatch-sim-worker usr/share/cpgmatch/configs/model/morti.yaml \
+         usr/bin/cpgmatch-robot-agent usr/bin/cpgmatch-robot-emulator usr/share/cpgmatch/configs/robot/morti.yaml \
          usr/share/cpgmatch/fastdds/cluster.xml usr/lib/systemd/system/cpgmatch-optimizer.service; do
   [[ -e $WORK/root/$f ]] || fail "not in the package: /$f"
 done
@@ -28,4 +29,6 @@ apt-get install -s "$deb" >"$WORK/apt.log" 2>&1 || { cat "$WORK/apt.log"; fail "
 cd "$WORK"
 unset CPGMATCH_CONFIG_DIR
 "$WORK/root/usr/bin/cpgmatch" rollout --entrain 0.5 --eval 0.5 --json | grep -q '"cost"' || fail "rollout from the unpacked package"
+v=$("$WORK/root/usr/bin/cpgmatch-robot-agent" --version) || fail "the packaged agent's --version exited $?"
+[[ $v == "cpgmatch-robot-agent "* ]] || fail "the packaged agent's --version: '$v'"
 echo "PASS deb: $(basename "$deb"), Depends: $depends"

@@ -9,28 +9,24 @@
 // the optimizer re-issue them) and exits 0.
 #include <unistd.h>
 
-#include <condition_variable>
 #include <csignal>
-#include <deque>
 #include <iostream>
 #include <iterator>
-#include <map>
-#include <mutex>
-#include <set>
-#include <tuple>
+#include <optional>
 #include <thread>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
-#include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/domain.hpp"
-#include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
+#include "cpgmatch/worker/candidate_queue.hpp"
+#include "cpgmatch/worker/worker_link.hpp"
 #include "rollout_slot.hpp"
 
 namespace cpgmatch::worker {
@@ -38,12 +34,6 @@ namespace {
 
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
-
-// Reports stay in the writer's transient-local history so that an optimizer restarting mid-study still
-// receives them, until the optimizer disposes the candidate (it does once the report is in its store):
-// then the report is unregistered, which frees it here and its instance in the optimizer's reader. The
-// oldest are unregistered anyway once this many are kept (an optimizer that never acknowledges).
-constexpr std::size_t kReportsKept = 4096;
 
 struct Options {
   int domain = -1;
@@ -54,158 +44,60 @@ struct Options {
   bool localhost_only = false;
 };
 
+std::string host_name() {
+  char host[256] = "unknown";
+  gethostname(host, sizeof(host) - 1);
+  return host;
+}
+
+// The DDS side (candidates, reports kept until acknowledged, heartbeats) is the WorkerLink every worker
+// shares; what is this worker's own is running each candidate in a slot process.
 class SimWorker {
  public:
   explicit SimWorker(const Options& o)
       : options_(o),
-        participant_(dds::ParticipantConfig{o.domain, "cpgmatch-sim-worker " + o.id, o.localhost_only}),
-        reports_(participant_),
-        announcements_(participant_),
-        candidates_(participant_, "candidates_for_" + o.id, "worker_id = %0", {"'" + o.id + "'"},
-                    [this](const msg::Candidate& c) { accept(c); }),
-        // The content filter cannot read a dispose (a key-only sample), so disposes come through an
-        // unfiltered reader: the candidates of other workers are only remembered until their dispose.
-        acknowledgements_(participant_, {}, [this](const msg::Candidate& key, dds::InstanceGone gone) {
-          if (gone.disposed) report_acknowledged(key);  // not on a lost optimizer: its successor needs them
-        }) {
+        queue_(o.id),
+        link_(WorkerLinkConfig{o.domain, o.id, "cpgmatch-sim-worker " + o.id, o.localhost_only, msg::WORKER_SIM,
+                               static_cast<std::uint32_t>(o.slots), o.heartbeat_s, host_name()},
+              queue_) {
     slot_options_.worker_id = o.id;
     slot_options_.fake_rollout_s = o.fake_rollout_ms >= 0.0 ? o.fake_rollout_ms / 1000.0 : -1.0;
     for (int i = 0; i < o.slots; ++i) slots_.emplace_back([this] { slot_loop(); });
   }
 
   void run() {
-    char host[256] = "unknown";
-    gethostname(host, sizeof(host) - 1);
-    host_ = host;
     spdlog::info("worker {} on domain {}: {} slots{}", options_.id, options_.domain, options_.slots,
                  slot_options_.fake_rollout_s >= 0.0 ? fmt::format(", fake rollouts of {} ms", options_.fake_rollout_ms) : "");
-    while (!g_stop) {
-      announce(true);
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait_for(lock, std::chrono::duration<double>(options_.heartbeat_s), [] { return g_stop != 0; });
-    }
+    link_.heartbeat_until([] { return g_stop != 0; });
     shutdown();
   }
 
  private:
-  void accept(const msg::Candidate& c) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (draining_) return;  // the optimizer re-issues it once we have left
-    // Dropped only while the very same issue (store, study, trial, attempt) is queued or running: DDS may deliver
-    // a sample twice. A re-issue (a higher attempt, e.g. after our report was lost) runs again, and so does
-    // a trial of a fresh store that reuses ids we saw long ago. The optimizer counts each trial once anyway.
-    if (!in_progress_.insert(issue_key(c)).second) return;
-    queue_.push_back(c);
-    wake_.notify_all();
-  }
-
-  void report_acknowledged(const msg::Candidate& key) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = kept_.find({key.store_id(), key.study_id(), key.trial_id()});
-    if (it == kept_.end()) return;
-    reports_.unregister(it->second);
-    kept_.erase(it);
-  }
-
   void slot_loop() {
-    while (true) {
-      msg::Candidate c;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return draining_ || !queue_.empty(); });
-        if (draining_) return;
-        c = queue_.front();
-        queue_.pop_front();
-        ++busy_;
-      }
-      const msg::RolloutReport report = execute_candidate(c, slot_options_);
-      if (!report.ok()) spdlog::warn("study {} trial {}: {}", c.study_id(), c.trial_id(), report.error().to_string());
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!reports_.write(report)) spdlog::error("study {} trial {}: report write failed", c.study_id(), c.trial_id());
-      in_progress_.erase(issue_key(c));
-      const ReportKey key{report.store_id(), report.study_id(), report.trial_id()};
-      kept_[key] = report;
-      kept_order_.push_back(key);
-      if (kept_order_.size() > 2 * kReportsKept) {  // drop the acknowledged ones from the order
-        std::deque<ReportKey> live;
-        for (const auto& k : kept_order_) if (kept_.count(k)) live.push_back(k);
-        kept_order_.swap(live);
-      }
-      while (kept_.size() > kReportsKept) {
-        if (const auto oldest = kept_.find(kept_order_.front()); oldest != kept_.end()) {
-          reports_.unregister(oldest->second);
-          kept_.erase(oldest);
-        }
-        kept_order_.pop_front();
-      }
-      --busy_;
-      ++completed_;
+    while (const std::optional<msg::Candidate> c = queue_.take()) {
+      const msg::RolloutReport report = execute_candidate(*c, slot_options_);
+      if (!report.ok()) spdlog::warn("study {} trial {}: {}", c->study_id(), c->trial_id(), report.error().to_string());
+      link_.publish(report);
+      queue_.finish(*c);
     }
   }
 
-  void announce(bool accepting) {
-    msg::WorkerAnnouncement a;
-    a.worker_key(dds::worker_key(options_.id));
-    a.worker_id(options_.id);
-    a.kind(msg::WORKER_SIM);
-    a.host(host_);
-    a.pid(static_cast<std::uint32_t>(getpid()));
-    a.slots(static_cast<std::uint32_t>(options_.slots));
-    a.heartbeat_period_s(options_.heartbeat_s);
-    a.accepting(accepting);
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      a.busy(static_cast<std::uint32_t>(busy_));
-      a.completed(completed_);
-    }
-    announcements_.write(a);
-    last_announcement_ = a;
-  }
-
+  // On SIGTERM: finish the running rollouts, hand back the queued ones (the optimizer re-issues them once
+  // this worker has left the domain).
   void shutdown() {
-    spdlog::info("worker {}: stopping; finishing {} running rollouts", options_.id, busy_);
-    announce(false);
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      const std::size_t handed_back = queue_.size();
-      queue_.clear();
-      draining_ = true;
-      wake_.notify_all();
-      if (handed_back) spdlog::info("worker {}: handing back {} queued candidates", options_.id, handed_back);
-    }
+    spdlog::info("worker {}: stopping; finishing {} running rollouts", options_.id, queue_.load().busy);
+    const std::size_t handed_back = queue_.drain();
+    if (handed_back) spdlog::info("worker {}: handing back {} queued candidates", options_.id, handed_back);
     for (auto& t : slots_) t.join();
-    // Give reliable delivery of the last reports a moment before the writer goes away.
-    reports_.matched().wait_for(1, std::chrono::milliseconds(0));
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    announcements_.unregister(last_announcement_);
-    spdlog::info("worker {}: {} rollouts done, bye", options_.id, completed_);
+    link_.leave();
+    spdlog::info("worker {}: {} rollouts done, bye", options_.id, queue_.load().completed);
   }
 
   Options options_;
   SlotOptions slot_options_;
-  std::string host_;
-  dds::Participant participant_;
-  dds::Writer<msg::RolloutReport> reports_;
-  dds::Writer<msg::WorkerAnnouncement> announcements_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<msg::Candidate> queue_;
-  using IssueKey = std::tuple<std::uint64_t, std::uint32_t, std::uint32_t, std::uint32_t>;  // store, study, trial, attempt
-  static IssueKey issue_key(const msg::Candidate& c) {
-    return {c.store_id(), c.study_id(), c.trial_id(), c.attempt()};
-  }
-  std::set<IssueKey> in_progress_;  // queued or running: bounded by the slots and the queue
-  using ReportKey = std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>;  // store, study, trial: the topic's key
-  std::map<ReportKey, msg::RolloutReport> kept_;              // written, not yet acknowledged
-  std::deque<ReportKey> kept_order_;                           // in writing order (may name acknowledged ones)
-  int busy_ = 0;
-  std::uint64_t completed_ = 0;
-  bool draining_ = false;
-  msg::WorkerAnnouncement last_announcement_;
+  CandidateQueue queue_;
+  WorkerLink link_;  // after the queue: its readers feed the queue from the moment it exists
   std::vector<std::thread> slots_;
-  // Last: the readers' callbacks use everything above, so they must be created after and destroyed first.
-  dds::Reader<msg::Candidate> candidates_;
-  dds::Reader<msg::Candidate> acknowledgements_;
 };
 
 // `--run-one`: one rollout whose request arrives as JSON on stdin; prints the report JSON and the cost.

@@ -1,0 +1,73 @@
+// A worker's DDS side, shared by cpgmatch-sim-worker and cpgmatch-robot-agent: its participant, the
+// candidates addressed to it (into a CandidateQueue), its reports (kept until the optimizer
+// acknowledges them, see kept_reports.hpp) and its heartbeats. What a worker does with a candidate is
+// the program's own business.
+//
+//   CandidateQueue queue(id);
+//   WorkerLink link(WorkerLinkConfig{...}, queue);
+//   rollout thread: while (auto c = queue.take()) { link.publish(run(*c)); queue.finish(*c); }
+//   main thread:    link.heartbeat_until([] { return g_stop != 0; }); queue.drain(); join; link.leave();
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <string>
+
+#include "cpgmatch/dds/participant.hpp"
+#include "cpgmatch/worker/candidate_queue.hpp"
+#include "cpgmatch/worker/kept_reports.hpp"
+
+namespace cpgmatch::worker {
+
+struct WorkerLinkConfig {
+  int domain = 0;
+  std::string worker_id;         // unique on the domain; candidates are filtered on it
+  std::string participant_name;  // what other participants see (logs, peer discovery)
+  bool localhost_only = false;
+  msg::WorkerKind kind = msg::WORKER_SIM;
+  std::uint32_t slots = 1;       // announced capacity
+  double heartbeat_s = 0.5;
+  std::string host;              // announced host name
+};
+
+class WorkerLink {
+ public:
+  // Joins the domain; candidates start arriving in `queue` at once.
+  WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue);
+  WorkerLink(const WorkerLink&) = delete;
+  WorkerLink& operator=(const WorkerLink&) = delete;
+
+  // Writes a report and keeps it until the optimizer disposes its candidate. False: the write failed.
+  bool publish(const msg::RolloutReport& report);
+
+  // One announcement: id, kind, capacity, and the queue's load.
+  void announce(bool accepting);
+
+  // Announces every heartbeat period until `stop` returns true (checked every 50 ms, so a signal is
+  // acted on quickly), then once more as not accepting.
+  void heartbeat_until(const std::function<bool()>& stop);
+
+  // After the rollouts have ended: gives reliable delivery of the last reports a moment, then leaves the
+  // workers topic (the optimizer re-issues whatever was still assigned to this worker).
+  void leave();
+
+ private:
+  void acknowledged(const msg::Candidate& key);
+
+  WorkerLinkConfig config_;
+  CandidateQueue& queue_;
+  dds::Participant participant_;
+  dds::Writer<msg::RolloutReport> reports_;
+  dds::Writer<msg::WorkerAnnouncement> announcements_;
+  std::mutex mutex_;  // the report writer and `kept_`: a dispose may arrive while a report is written
+  KeptReports kept_;
+  msg::WorkerAnnouncement last_announcement_;
+  // Last: the readers' callbacks use everything above, so they must be created after and destroyed first.
+  dds::Reader<msg::Candidate> candidates_;
+  // The content filter cannot read a dispose (a key-only sample), so disposes come through an unfiltered
+  // reader: the candidates of other workers are only remembered until their dispose.
+  dds::Reader<msg::Candidate> acknowledgements_;
+};
+
+}  // namespace cpgmatch::worker

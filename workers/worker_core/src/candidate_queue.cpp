@@ -1,0 +1,60 @@
+#include "cpgmatch/worker/candidate_queue.hpp"
+
+#include <utility>
+
+namespace cpgmatch::worker {
+
+CandidateQueue::CandidateQueue(std::string worker_id) : worker_id_(std::move(worker_id)) {}
+
+CandidateQueue::IssueKey CandidateQueue::issue_key(const msg::Candidate& c) {
+  return {c.store_id(), c.study_id(), c.trial_id(), c.attempt()};
+}
+
+CandidateQueue::Offer CandidateQueue::offer(const msg::Candidate& c) {
+  // Checked here as well as by the reader's content filter, so that whatever delivers samples, a
+  // worker never runs (and the optimizer never rejects a report for) another worker's candidate.
+  if (c.worker_id() != worker_id_) return Offer::kNotOurs;
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (draining_) return Offer::kDraining;
+  // Dropped only while the very same issue is queued or running: a re-issue (a higher attempt, e.g.
+  // after our report was lost) runs again, and so does a trial of a fresh store that reuses ids seen long
+  // ago. The optimizer counts each trial once anyway.
+  if (!in_progress_.insert(issue_key(c)).second) return Offer::kDuplicate;
+  queue_.push_back(c);
+  wake_.notify_one();
+  return Offer::kQueued;
+}
+
+std::optional<msg::Candidate> CandidateQueue::take() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  wake_.wait(lock, [&] { return draining_ || !queue_.empty(); });
+  if (draining_) return std::nullopt;
+  msg::Candidate c = std::move(queue_.front());
+  queue_.pop_front();
+  ++busy_;
+  return c;
+}
+
+void CandidateQueue::finish(const msg::Candidate& c) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  in_progress_.erase(issue_key(c));
+  if (busy_ > 0) --busy_;
+  ++completed_;
+}
+
+std::size_t CandidateQueue::drain() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::size_t dropped = queue_.size();
+  for (const auto& c : queue_) in_progress_.erase(issue_key(c));
+  queue_.clear();
+  draining_ = true;
+  wake_.notify_all();
+  return dropped;
+}
+
+CandidateQueue::Load CandidateQueue::load() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return Load{busy_, completed_, queue_.size()};
+}
+
+}  // namespace cpgmatch::worker

@@ -1,0 +1,77 @@
+#include "cpgmatch/worker/worker_link.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include <spdlog/spdlog.h>
+
+#include "cpgmatch/dds/convert.hpp"
+
+namespace cpgmatch::worker {
+
+WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
+    : config_(config),
+      queue_(queue),
+      participant_(dds::ParticipantConfig{config.domain, config.participant_name, config.localhost_only, {}}),
+      reports_(participant_),
+      announcements_(participant_),
+      candidates_(participant_, "candidates_for_" + config.worker_id, "worker_id = %0", {"'" + config.worker_id + "'"},
+                  [this](const msg::Candidate& c) { queue_.offer(c); }),
+      acknowledgements_(participant_, {}, [this](const msg::Candidate& key, dds::InstanceGone gone) {
+        if (gone.disposed) acknowledged(key);  // not on a lost optimizer: its successor needs the reports
+      }) {}
+
+bool WorkerLink::publish(const msg::RolloutReport& report) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const bool written = reports_.write(report);
+  if (!written) spdlog::error("study {} trial {}: report write failed", report.study_id(), report.trial_id());
+  for (const auto& old : kept_.keep(report)) reports_.unregister(old);
+  return written;
+}
+
+void WorkerLink::acknowledged(const msg::Candidate& key) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (const auto report = kept_.acknowledge(key)) reports_.unregister(*report);
+}
+
+void WorkerLink::announce(bool accepting) {
+  const CandidateQueue::Load load = queue_.load();
+  msg::WorkerAnnouncement a;
+  a.worker_key(dds::worker_key(config_.worker_id));
+  a.worker_id(config_.worker_id);
+  a.kind(config_.kind);
+  a.host(config_.host);
+  a.pid(static_cast<std::uint32_t>(getpid()));
+  a.slots(config_.slots);
+  a.heartbeat_period_s(config_.heartbeat_s);
+  a.accepting(accepting);
+  a.busy(load.busy);
+  a.completed(load.completed);
+  announcements_.write(a);
+  last_announcement_ = a;
+}
+
+void WorkerLink::heartbeat_until(const std::function<bool()>& stop) {
+  using Clock = std::chrono::steady_clock;
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.heartbeat_s));
+  auto next = Clock::now();
+  while (!stop()) {
+    if (Clock::now() >= next) {
+      announce(true);
+      next = Clock::now() + period;  // after a stall: one announcement now, not a burst to catch up
+    }
+    std::this_thread::sleep_for(std::min<Clock::duration>(std::chrono::milliseconds(50), next - Clock::now()));
+  }
+  announce(false);
+}
+
+void WorkerLink::leave() {
+  // Reliable delivery of the last reports needs a moment before the writer goes away.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  announcements_.unregister(last_announcement_);
+}
+
+}  // namespace cpgmatch::worker
