@@ -617,6 +617,24 @@ Coordinator::ModelSnapshot Coordinator::snapshot_of(const bo::BayesianOptimizer&
   return m;
 }
 
+ModelPool::Completion Coordinator::model_job_result(int id, int ask, FittedModel fitted,
+                                                   std::vector<Eigen::VectorXd> points, std::string error) {
+  // On the event thread: only copies and the store write, never model work.
+  return [this, id, fitted = std::move(fitted), points = std::move(points), ask, error = std::move(error)] {
+    Study* study = find_study(id);
+    if (study == nullptr) return;
+    study->model_busy = false;
+    study->asking = 0;
+    if (fitted) {
+      store_.save_model_state(id, fitted->second);
+      study->model = fitted->first;
+      study->dirty = true;
+    }
+    if (!error.empty()) warn_(fmt::format("study {}: model job (tell, then ask({})) failed: {}", id, ask, error));
+    study->proposed.insert(study->proposed.end(), points.begin(), points.end());
+  };
+}
+
 int Coordinator::lockstep_tellable(const Study& s) {
   std::set<int> reported;
   for (const auto& [trial_id, observation] : s.untold) reported.insert(trial_id);
@@ -672,7 +690,7 @@ void Coordinator::start_lockstep_model_job(Study& s, int ask) {
     if (options_.model_job_hook) options_.model_job_hook(id);
     std::vector<Eigen::VectorXd> points;
     std::string error;
-    std::optional<std::pair<ModelSnapshot, nlohmann::json>> fitted;
+    FittedModel fitted;
     try {
       int told = told0;
       auto tell_next = [&] { optimizer->tell_batch({tells[static_cast<std::size_t>(told++ - told0)]}); };
@@ -688,19 +706,7 @@ void Coordinator::start_lockstep_model_job(Study& s, int ask) {
     } catch (const std::exception& e) {
       error = e.what();
     }
-    return [this, id, fitted = std::move(fitted), points = std::move(points), ask, error] {
-      Study* study = find_study(id);
-      if (study == nullptr) return;
-      study->model_busy = false;
-      study->asking = 0;
-      if (fitted) {
-        store_.save_model_state(id, fitted->second);
-        study->model = fitted->first;
-        study->dirty = true;
-      }
-      if (!error.empty()) warn_(fmt::format("study {}: lockstep model job (ask({})) failed: {}", id, ask, error));
-      study->proposed.insert(study->proposed.end(), points.begin(), points.end());
-    };
+    return model_job_result(id, ask, std::move(fitted), std::move(points), error);
   };
   models_.submit(static_cast<std::uint64_t>(id), std::move(work));
 }
@@ -725,7 +731,7 @@ void Coordinator::start_model_job(Study& s, int ask) {
     if (options_.model_job_hook) options_.model_job_hook(id);
     std::vector<Eigen::VectorXd> points;
     std::string error;
-    std::optional<std::pair<ModelSnapshot, nlohmann::json>> fitted;  // what the event thread keeps and stores
+    FittedModel fitted;  // what the event thread keeps and stores
     try {
       if (!tells.empty()) {
         optimizer->tell_batch(tells);  // one fit for every report since the last job
@@ -735,20 +741,7 @@ void Coordinator::start_model_job(Study& s, int ask) {
     } catch (const std::exception& e) {
       error = e.what();  // e.g. a GP that cannot be factorised: logged, and the study asks again next tick
     }
-    // On the event thread: only copies and the store write, never model work.
-    return [this, id, fitted = std::move(fitted), points = std::move(points), ask, error] {
-      Study* study = find_study(id);
-      if (study == nullptr) return;
-      study->model_busy = false;
-      study->asking = 0;
-      if (fitted) {
-        store_.save_model_state(id, fitted->second);
-        study->model = fitted->first;
-        study->dirty = true;
-      }
-      if (!error.empty()) warn_(fmt::format("study {}: model job (tell, then ask({})) failed: {}", id, ask, error));
-      study->proposed.insert(study->proposed.end(), points.begin(), points.end());
-    };
+    return model_job_result(id, ask, std::move(fitted), std::move(points), error);
   };
   models_.submit(static_cast<std::uint64_t>(id), std::move(work));
 }

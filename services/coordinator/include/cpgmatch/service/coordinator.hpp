@@ -29,6 +29,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -195,6 +196,11 @@ class Coordinator {
   static int lockstep_tellable(const Study& s);
   static int lockstep_room(const Study& s);
   void start_lockstep_model_job(Study& s, int ask);
+  // What a model job hands back to the event thread: the fitted model's snapshot and saved state (if it
+  // told anything), the points it asked for, or the error that stopped it.
+  using FittedModel = std::optional<std::pair<ModelSnapshot, nlohmann::json>>;
+  ModelPool::Completion model_job_result(int id, int ask, FittedModel fitted, std::vector<Eigen::VectorXd> points,
+                                         std::string error);
   bool has_hardware_worker() const;
   // Stores the validation sets once the exploration is complete and told; true when it did.
   bool start_validation_if_due(Study& study);
