@@ -586,15 +586,17 @@ void Coordinator::start_model_jobs(const std::vector<Study*>& order, FreeSlots f
     if (s->model_busy || !s->optimizer) continue;
     int n = 0;
     int& wanted_here = wanted[explores_on_hardware(*s)];
-    int remaining = 0;
     if (s->state == "running") {
-      remaining = s->config.budget - s->completed - exploring_in_flight(*s) - static_cast<int>(s->proposed.size());
+      const int remaining = s->config.budget - s->completed - exploring_in_flight(*s) -
+                            static_cast<int>(s->proposed.size());
       n = std::max(0, std::min({remaining, wanted_here, new_budget}));
     }
     if (s->config.lockstep > 0) {
       n = std::min(n, lockstep_room(*s));
-      // Telling early would change later proposals: reports wait for the ask that needs them, or for the end.
-      if (n == 0 && (remaining > 0 || lockstep_tellable(*s) == 0)) continue;
+      // Telling early would change later proposals: reports wait for the ask that needs them, or for the
+      // end of the exploration (every trial proposed), when they are all told. A paused study waits too.
+      const bool all_proposed = s->next_trial_id + static_cast<int>(s->proposed.size()) >= s->config.budget;
+      if (n == 0 && !(all_proposed && lockstep_tellable(*s) > 0)) continue;
     }
     if (n == 0 && s->untold.empty()) continue;
     wanted_here -= n;
