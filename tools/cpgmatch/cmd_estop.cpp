@@ -95,6 +95,7 @@ void add_estop_command(CLI::App& app) {
   cmd->add_flag("--release", o->release, "lift a latched stop: the agent accepts candidates again");
   cmd->add_flag("--json", o->json, "print what was sent as JSON (stop_id, sent_unix_s, readers, ...)");
   add_service_flags(cmd, o->service, "operator");
+  cmd->get_option("--timeout")->description("seconds to wait for an agent to hear the stop, and for its acknowledgement");
   cmd->callback([o] {
     check(*o);
     send(*o);
