@@ -3,7 +3,8 @@
 # agent against the emulator over udp on loopback; `cpgmatch estop` stops it. Checked: the emulator sees
 # every motor in the safe state within STOP_BOUND_MS of the command being sent (the measured time is
 # printed), the report is failed with "emergency stop: <reason>", the latched agent announces it is not
-# accepting and refuses a candidate naming the stop, and after `--release` it runs one again.
+# accepting and refuses a candidate naming the stop, and after `--all --release` it runs one again (a stop
+# for another robot changing nothing).
 source "$(dirname "$0")/robot_lib.sh"
 # Sending to the safe state on the emulator: DDS delivery on loopback plus one CAN batch. The target on
 # the robot is 20 ms; this shared, loaded machine stalls processes for up to ~100 ms at times
@@ -71,11 +72,14 @@ wait_until 10 bash -c "\"$BIN/cpgmatch\" workers --json --domain $DOMAIN --local
 got=$("$BIN/offer_candidate" "$DOMAIN" morti 1) || fail "no report for the offered candidate"
 [[ $(json_field "$got" ok) == False && $(json_field "$got" error) == *"emergency stop latched: $REASON"* ]] || fail "not refused while latched: $got"
 
-# Released: accepting again, and the next candidate runs.
-out=$(cli estop --robot morti --release --json --timeout 20) || fail "release failed: $out"
+# Released (--all: every agent's latch): accepting again; another robot's stop changes nothing here, and
+# the next candidate runs.
+out=$(cli estop --all --release --json --timeout 20) || fail "release failed: $out"
 wait_until 10 grep -q "accepting candidates again" "$WORK/agent.log" || fail "the agent did not log the release"
+out=$(cli estop --robot cheetah --reason "not morti" --json --timeout 20) || fail "estop for another robot failed: $out"
 got=$("$BIN/offer_candidate" "$DOMAIN" morti 2) || fail "no report after the release"
-[[ $(json_field "$got" ok) == True ]] || fail "not run after the release: $got"
+[[ $(json_field "$got" ok) == True ]] || fail "not run after the release (or stopped by another robot's stop): $got"
+grep -q "not morti" "$WORK/agent.log" && fail "the agent acted on another robot's stop"
 
 kill -TERM "$AGENT_PID"
 wait "$AGENT_PID" || fail "agent exited $? after SIGTERM"
