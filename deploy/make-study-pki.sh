@@ -15,8 +15,9 @@
 #   options: --days N (validity, default 365), --expired NAME:ROLE (a certificate that expired in 2020: tests)
 #
 # Roles: optimizer writes candidates, study state, trials and replies and reads reports, workers and
-# commands; worker reads candidates and writes reports and announcements; operator submits and controls
-# studies (and reads what it needs to follow them); viewer reads state, trials and workers only.
+# commands; worker reads candidates and emergency stops and writes reports and announcements; operator
+# submits and controls studies (and reads what it needs to follow them) and sends emergency stops; viewer
+# reads state, trials and workers only.
 # Topic names are listed exactly, never as patterns: a '*' would have to match across '/'.
 set -euo pipefail
 
@@ -38,10 +39,12 @@ done
 command -v openssl >/dev/null || { echo "make-study-pki.sh: openssl is not installed" >&2; exit 1; }
 
 C=cpgmatch/candidates R=cpgmatch/reports W=cpgmatch/workers S=cpgmatch/study_state
-T=cpgmatch/trials K=cpgmatch/commands Y=cpgmatch/replies
-declare -A PUBLISH=([optimizer]="$C $S $T $Y" [worker]="$R $W" [operator]="$K" [viewer]="")
-declare -A SUBSCRIBE=([optimizer]="$R $W $K" [worker]="$C" [operator]="$Y $S $T $W" [viewer]="$S $T $W")
-ALL_TOPICS="$C $R $W $S $T $K $Y"
+T=cpgmatch/trials K=cpgmatch/commands Y=cpgmatch/replies E=cpgmatch/estop
+# Emergency stops: the operator sends them (cpgmatch estop), workers read them (robot agents act on
+# them; simulation workers have no reader). A viewer may not stop a robot.
+declare -A PUBLISH=([optimizer]="$C $S $T $Y" [worker]="$R $W" [operator]="$K $E" [viewer]="")
+declare -A SUBSCRIBE=([optimizer]="$R $W $K" [worker]="$C $E" [operator]="$Y $S $T $W" [viewer]="$S $T $W")
+ALL_TOPICS="$C $R $W $S $T $K $Y $E"
 
 mkdir -p "$KEYSTORE"/{public,private,enclaves}
 chmod 700 "$KEYSTORE/private"

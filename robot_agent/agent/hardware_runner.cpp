@@ -23,16 +23,17 @@ double thread_cpu_s() {
 }  // namespace
 
 struct HardwareRunner::Impl {
+  explicit Impl(const HardwareRunnerOptions& o) : options(o), latch(o.robot_id) {}
   HardwareRunnerOptions options;
   RobotConfig config;
   std::unique_ptr<can::CanBus> bus;
   std::unique_ptr<CanPlant> plant;
   std::once_flag realtime_once;
   std::string realtime_warning;
+  EstopLatch latch;
 };
 
-HardwareRunner::HardwareRunner(const HardwareRunnerOptions& options) : impl_(std::make_unique<Impl>()) {
-  impl_->options = options;
+HardwareRunner::HardwareRunner(const HardwareRunnerOptions& options) : impl_(std::make_unique<Impl>(options)) {
   impl_->config = load_robot_config(options.robot_path);
   if (impl_->config.emulator_only && options.can_uri.rfind("socketcan:", 0) == 0) {
     throw InputError(fmt::format("{}: emulator_only: true may not drive {} (its watchdog may be slower than the 20 ms "
@@ -58,8 +59,25 @@ std::string HardwareRunner::realtime_warning() const { return impl_->realtime_wa
 
 void HardwareRunner::emergency_stop(const char* reason) { impl_->plant->emergency_stop(reason); }
 
+StopOutcome HardwareRunner::stop_command(const StopRequest& request) {
+  const StopOutcome outcome = impl_->latch.apply(request);
+  // Latch first, then trip: a rollout that starts in between sees the latch after prepare() (which
+  // clears the plant's trip) and stops there. A repeated stop trips again; the safe state is idempotent.
+  if (outcome == StopOutcome::kLatched || outcome == StopOutcome::kAlreadyLatched) {
+    const std::string reason = *impl_->latch.reason();
+    impl_->plant->emergency_stop(reason.c_str());
+  }
+  return outcome;
+}
+
+std::optional<std::string> HardwareRunner::latched_stop() const { return impl_->latch.reason(); }
+
 HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSettings& requested, std::uint64_t seed) {
   HardwareRollout out;
+  if (auto stop = impl_->latch.reason()) {
+    out.error = "refused: emergency stop latched: " + *stop + " (until cpgmatch estop --release or a restart)";
+    return out;
+  }
   if (auto why = impl_->config.envelope_violation(params)) {
     out.error = "refused: " + *why;
     return out;
@@ -74,9 +92,17 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
     });
   }
   CanPlant& plant = *impl_->plant;
-  if (auto why = plant.prepare(settings.entrain_s + settings.eval_s)) {
+  const std::optional<std::string> not_ready = plant.prepare(settings.entrain_s + settings.eval_s);
+  // prepare() clears the plant's trip, so a stop that came while it ran is read from the latch here.
+  if (auto stop = impl_->latch.reason()) {
+    plant.emergency_stop(stop->c_str());
     plant.finish();
-    out.error = "robot not ready: " + *why;
+    out.error = "emergency stop: " + *stop;
+    return out;
+  }
+  if (not_ready) {
+    plant.finish();
+    out.error = "robot not ready: " + *not_ready;
     return out;
   }
   const double cpu_start = thread_cpu_s();

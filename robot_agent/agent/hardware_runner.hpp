@@ -6,9 +6,11 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "cpgmatch/params.hpp"
+#include "cpgmatch/robot/estop_latch.hpp"
 #include "cpgmatch/rollout.hpp"
 
 namespace cpgmatch::robot {
@@ -20,6 +22,8 @@ struct HardwareRunnerOptions {
   int fifo_priority = 80;
   // Emulator in lockstep only (needs an emulator_only robot description): wait for every reply.
   bool lockstep = false;
+  // This robot's id: emergency-stop commands name it (or every robot).
+  std::string robot_id;
 };
 
 struct HardwareLoopStats {
@@ -57,8 +61,15 @@ class HardwareRunner {
   // state and motors off. Blocks; call from the thread that should run the real-time loop.
   HardwareRollout run(const CpgParameters& params, const RolloutSettings& settings, std::uint64_t seed);
 
-  // From any thread (signal handling, emergency-stop topic): the running rollout trips at once.
+  // From any thread (signal handling): the running rollout trips at once.
   void emergency_stop(const char* reason);
+
+  // From any thread (the emergency-stop topic): a stop for this robot latches and puts every motor in
+  // the safe state at once (the running rollout ends failed, "emergency stop: REASON"); while latched
+  // run() refuses every candidate; a release lifts the latch. Other robots' commands change nothing.
+  StopOutcome stop_command(const StopRequest& request);
+  // The latched stop's reason, or nullopt.
+  std::optional<std::string> latched_stop() const;
 
   // What was refused when entering real-time mode (empty when granted); set after the first run().
   std::string realtime_warning() const;

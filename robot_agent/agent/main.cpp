@@ -8,7 +8,9 @@
 //
 // --run-once runs one rollout without DDS and prints it (JSON: the report's fields plus the loop's
 // jitter), for bring-up and benchmarks. SIGINT/SIGTERM: the running rollout stops safely at once (motors
-// to the safe state, then off), its report says so, and the agent leaves the domain.
+// to the safe state, then off), its report says so, and the agent leaves the domain. A stop on the
+// cpgmatch/estop topic (cpgmatch estop) does the same but latches: the agent stays on the domain, announces
+// that it does not accept work and refuses candidates until a release (docs/robot_agent.md).
 #include <unistd.h>
 
 #include <algorithm>
@@ -159,7 +161,8 @@ class HardwareWorker {
         base_params_(base),
         queue_(o.id),
         link_(worker::WorkerLinkConfig{o.domain, o.id, "cpgmatch-robot-agent " + o.id, o.localhost_only,
-                                       msg::WORKER_HARDWARE, 1, o.heartbeat_s, host_name()},
+                                       msg::WORKER_HARDWARE, 1, o.heartbeat_s, host_name(),
+                                       [this](const msg::EmergencyStop& s) { on_emergency_stop(s); }},
               queue_) {
     rollout_thread_ = std::thread([this] { rollout_loop(); });
   }
@@ -179,6 +182,21 @@ class HardwareWorker {
     char host[256] = "robot";
     gethostname(host, sizeof(host) - 1);
     return host;
+  }
+
+  // On a DDS thread. The runner does the safety part (latch, safe state); this only translates and tells.
+  void on_emergency_stop(const msg::EmergencyStop& s) {
+    const StopOutcome outcome = runner_.stop_command(StopRequest{s.target().to_string(), s.reason().to_string(), s.release()});
+    if (outcome == StopOutcome::kNotForThisRobot) return;
+    const std::optional<std::string> latched = runner_.latched_stop();
+    link_.set_accepting(!latched);
+    if (latched) {
+      spdlog::warn("EMERGENCY STOP {:016x} from {} ({}): {}; motors in the safe state, refusing candidates until "
+                   "`cpgmatch estop --release` or a restart",
+                   s.stop_id(), s.sender().to_string(), to_string(outcome), *latched);
+    } else {
+      spdlog::warn("emergency stop {:016x} from {}: {}; accepting candidates again", s.stop_id(), s.sender().to_string(), to_string(outcome));
+    }
   }
 
   void rollout_loop() {
@@ -305,6 +323,7 @@ int main(int argc, char** argv) {
     ro.robot_path = o.robot_path;
     ro.realtime = !o.no_realtime;
     ro.lockstep = o.lockstep;
+    ro.robot_id = o.id;
     HardwareRunner runner(ro);
     if (o.run_once) return run_once(o, runner, settings, params);
     HardwareWorker worker(o, runner, settings, params);

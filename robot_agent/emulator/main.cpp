@@ -11,7 +11,9 @@
 // A rollout starts when the motors are enabled after all were off: the robot is put back on its feet
 // (a fresh world), as an operator would. While every motor is off the robot hangs in its rig (no
 // physics), so it cannot collapse between rollouts.
+#include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <memory>
 #include <optional>
 
@@ -97,6 +99,26 @@ class Emulator {
     return true;
   }
 
+  // Every motor off, or told kp = 0 and no feed-forward torque (the agent's safe state: it only damps).
+  bool every_motor_safe() const {
+    for (int j = 0; j < kNumJoints; ++j) {
+      const MotorCommand& c = device_.last_command(j);
+      if (device_.enabled(j) && (c.kp_nm_per_rad != 0.0 || c.torque_nm != 0.0)) return false;
+    }
+    return true;
+  }
+
+  // The moments the robot stops being driven and is switched off, in Unix time (to the microsecond):
+  // tests compare them with the time an emergency stop was sent (tests/robot/test_agent_estop.sh).
+  void log_safety_transitions() {
+    const bool safe = every_motor_safe(), off = !any_enabled();
+    const double unix_s = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    if (safe && !was_safe_) std::fprintf(stderr, "emulator: every motor safe (kp = 0, no torque, or off) at unix %.6f s\n", unix_s);
+    if (off && !was_off_) std::fprintf(stderr, "emulator: every motor off at unix %.6f s\n", unix_s);
+    was_safe_ = safe;
+    was_off_ = off;
+  }
+
   // Applies one received frame's consequences that do not depend on the stepping mode.
   RobotDevice::Received take(std::chrono::nanoseconds timeout) {
     const bool was_enabled = any_enabled();
@@ -106,6 +128,7 @@ class Emulator {
       ++rollouts_;
       std::fprintf(stderr, "emulator: motors enabled, rollout %d starts on a fresh world\n", rollouts_);
     }
+    if (got.event != RobotDevice::Event::kNone) log_safety_transitions();
     return got;
   }
 
@@ -168,6 +191,8 @@ class Emulator {
   RobotDevice device_;
   std::unique_ptr<sim::OdePlant> plant_;
   int steps_per_control_ = 2;
+  bool was_safe_ = true;  // the robot starts off, hanging in its rig
+  bool was_off_ = true;
   int rollouts_ = 0;
 };
 

@@ -88,7 +88,17 @@ out=$("$BIN/cpgmatch" study submit --config "$WORK/s.yaml" --wait --json --quiet
 [[ $(json_field "$out" completed) == 2 ]] || fail "secure study: $out"
 n=$(hardware_reports_from "$WORK/secure.db" morti)
 [[ $n == 2 ]] || fail "secure study: expected 2 ok hardware reports from morti, got $n"
+# Emergency stops under DDS-Security: the operator identity may send them and the agent (a worker) hears
+# them; a viewer may not create the writer.
+ESTOP=("$BIN/cpgmatch" estop --robot morti --domain "$DOMAIN" --localhost-only --keystore "$KS" --timeout 20)
+"${ESTOP[@]}" --reason "secure stop" >>"$WORK/cli.log" 2>&1 || fail "secure estop by the operator failed"
+wait_until 10 grep -q "EMERGENCY STOP .*secure stop" "$WORK/agent-morti.log" || fail "the secure agent did not hear the stop"
+"${ESTOP[@]}" --release >>"$WORK/cli.log" 2>&1 || fail "secure release by the operator failed"
+wait_until 10 grep -q "accepting candidates again" "$WORK/agent-morti.log" || fail "the secure agent did not hear the release"
+expect_exit 1 "cannot create a writer on cpgmatch/estop" "$BIN/cpgmatch" estop --robot morti --domain "$DOMAIN" \
+  --localhost-only --keystore "$KS" --enclave viewer --timeout 3
 stop_agent
 echo "PASS agent and emulator flags: --version; bad --dds-profile, --discovery-server, --keystore, \$CPGMATCH_KEYSTORE," \
      "--enclave exit 2 naming them; a hardware study over a discovery server (cluster profile, FILE form on the" \
-     "agent) and one under DDS-Security (agent enclave morti; a viewer identity refused)"
+     "agent) and one under DDS-Security (agent enclave morti; a viewer identity refused; estop and release by the" \
+     "operator heard, a viewer may not send one)"

@@ -26,6 +26,8 @@ void add_plot_command(CLI::App& app);
 void add_reproduce_command(CLI::App& app);
 // Simulation versus hardware rollouts of a stored (mixed) study.
 void add_sim2real_command(CLI::App& app);
+// An emergency stop (latched) or its release for robot agents, over DDS.
+void add_estop_command(CLI::App& app);
 
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,

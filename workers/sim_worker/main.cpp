@@ -58,7 +58,7 @@ class SimWorker {
       : options_(o),
         queue_(o.id),
         link_(WorkerLinkConfig{o.domain, o.id, "cpgmatch-sim-worker " + o.id, o.localhost_only, msg::WORKER_SIM,
-                               static_cast<std::uint32_t>(o.slots), o.heartbeat_s, host_name()},
+                               static_cast<std::uint32_t>(o.slots), o.heartbeat_s, host_name(), {}},
               queue_) {
     slot_options_.worker_id = o.id;
     slot_options_.fake_rollout_s = o.fake_rollout_ms >= 0.0 ? o.fake_rollout_ms / 1000.0 : -1.0;

@@ -39,6 +39,7 @@ fdds::TypeSupport type_support(TopicId id) {
     case TopicId::kTrials: return fdds::TypeSupport(new msg::TrialRecordPubSubType());
     case TopicId::kCommands: return fdds::TypeSupport(new msg::StudyCommandPubSubType());
     case TopicId::kReplies: return fdds::TypeSupport(new msg::CommandReplyPubSubType());
+    case TopicId::kEmergencyStop: return fdds::TypeSupport(new msg::EmergencyStopPubSubType());
   }
   throw std::logic_error("unknown topic id");
 }

@@ -20,6 +20,10 @@ const TopicInfo& topic_info(TopicId id) {
   // the client's command got through, and a volatile reply would then be lost. Commands stay volatile
   // so that a restarted optimizer never executes an old command again.
   static const TopicInfo kReplies{"cpgmatch/replies", true, 256, 1};
+  // Emergency stops are volatile: a stop acts when it is heard and the agent latches it; a history that
+  // outlived its sender would stop a robot restarted on purpose. The sender waits for its readers to
+  // match and to acknowledge instead (cpgmatch estop).
+  static const TopicInfo kEmergencyStop{"cpgmatch/estop", false, 16, 1};
   switch (id) {
     case TopicId::kCandidates: return kCandidates;
     case TopicId::kReports: return kReports;
@@ -28,6 +32,7 @@ const TopicInfo& topic_info(TopicId id) {
     case TopicId::kTrials: return kTrials;
     case TopicId::kCommands: return kCommands;
     case TopicId::kReplies: return kReplies;
+    case TopicId::kEmergencyStop: return kEmergencyStop;
   }
   throw std::logic_error("unknown topic id");
 }

@@ -22,7 +22,11 @@ WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
                   [this](const msg::Candidate& c) { queue_.offer(c); }),
       acknowledgements_(participant_, {}, [this](const msg::Candidate& key, dds::InstanceGone gone) {
         if (gone.disposed) acknowledged(key);  // not on a lost optimizer: its successor needs the reports
-      }) {}
+      }) {
+  if (config_.on_emergency_stop) {
+    stops_ = std::make_unique<dds::Reader<msg::EmergencyStop>>(participant_, config_.on_emergency_stop);
+  }
+}
 
 bool WorkerLink::publish(const msg::RolloutReport& report) {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -58,9 +62,12 @@ void WorkerLink::heartbeat_until(const std::function<bool()>& stop) {
   using Clock = std::chrono::steady_clock;
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.heartbeat_s));
   auto next = Clock::now();
+  bool announced_accepting = true;
   while (!stop()) {
-    if (Clock::now() >= next) {
-      announce(true);
+    const bool accepting = accepting_;
+    if (Clock::now() >= next || accepting != announced_accepting) {
+      announce(accepting);
+      announced_accepting = accepting;
       next = Clock::now() + period;  // after a stall: one announcement now, not a burst to catch up
     }
     std::this_thread::sleep_for(std::min<Clock::duration>(std::chrono::milliseconds(50), next - Clock::now()));

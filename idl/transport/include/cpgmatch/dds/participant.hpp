@@ -115,6 +115,13 @@ class Writer {
            ReturnCode_OK();
   }
   const MatchCounter& matched() const { return listener_.matched; }
+  // True once every matched reliable reader has acknowledged everything written; false after `timeout`.
+  bool wait_for_acknowledgments(std::chrono::milliseconds timeout) {
+    const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(timeout).count();
+    return writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(static_cast<int32_t>(ns / 1000000000),
+                                                                            static_cast<uint32_t>(ns % 1000000000))) ==
+           ReturnCode_OK();
+  }
 
  private:
   static eprosima::fastrtps::types::ReturnCode_t ReturnCode_OK() {

@@ -12,7 +12,7 @@
 
 namespace cpgmatch::dds {
 
-enum class TopicId { kCandidates, kReports, kWorkers, kStudyState, kTrials, kCommands, kReplies };
+enum class TopicId { kCandidates, kReports, kWorkers, kStudyState, kTrials, kCommands, kReplies, kEmergencyStop };
 
 struct TopicInfo {
   const char* name;
@@ -35,6 +35,7 @@ template <> struct TopicOf<msg::StudyState> { static constexpr TopicId id = Topi
 template <> struct TopicOf<msg::TrialRecord> { static constexpr TopicId id = TopicId::kTrials; };
 template <> struct TopicOf<msg::StudyCommand> { static constexpr TopicId id = TopicId::kCommands; };
 template <> struct TopicOf<msg::CommandReply> { static constexpr TopicId id = TopicId::kReplies; };
+template <> struct TopicOf<msg::EmergencyStop> { static constexpr TopicId id = TopicId::kEmergencyStop; };
 
 // Seconds a worker's announcement stays alive without a heartbeat (DDS liveliness lease).
 inline constexpr double kWorkerLivelinessLease_s = 2.0;

@@ -9,8 +9,10 @@
 //   main thread:    link.heartbeat_until([] { return g_stop != 0; }); queue.drain(); join; link.leave();
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 
@@ -29,6 +31,9 @@ struct WorkerLinkConfig {
   std::uint32_t slots = 1;       // announced capacity
   double heartbeat_s = 0.5;
   std::string host;              // announced host name
+  // Robot agents only: emergency-stop commands (cpgmatch/estop), called on a DDS thread. Unset: no
+  // reader, so a simulation worker never subscribes.
+  std::function<void(const msg::EmergencyStop&)> on_emergency_stop;
 };
 
 class WorkerLink {
@@ -43,6 +48,10 @@ class WorkerLink {
 
   // One announcement: id, kind, capacity, and the queue's load.
   void announce(bool accepting);
+
+  // False while the worker must not be given work (a latched emergency stop): announced at once, so the
+  // optimizer stops assigning to it; the heartbeats carry it from then on.
+  void set_accepting(bool accepting) { accepting_ = accepting; }
 
   // Announces every heartbeat period until `stop` returns true (checked every 50 ms, so a signal is
   // acted on quickly), then once more as not accepting.
@@ -63,11 +72,13 @@ class WorkerLink {
   std::mutex mutex_;  // the report writer and `kept_`: a dispose may arrive while a report is written
   KeptReports kept_;
   msg::WorkerAnnouncement last_announcement_;
+  std::atomic<bool> accepting_{true};
   // Last: the readers' callbacks use everything above, so they must be created after and destroyed first.
   dds::Reader<msg::Candidate> candidates_;
   // The content filter cannot read a dispose (a key-only sample), so disposes come through an unfiltered
   // reader: the candidates of other workers are only remembered until their dispose.
   dds::Reader<msg::Candidate> acknowledgements_;
+  std::unique_ptr<dds::Reader<msg::EmergencyStop>> stops_;
 };
 
 }  // namespace cpgmatch::worker
