@@ -220,6 +220,42 @@ TEST_F(CoordinatorTest, ALockstepStudyRestartedMidwayIsTheSameStudy) {
   }
 }
 
+TEST_F(CoordinatorTest, APausedLockstepStudyStartsNoModelJobsAndGoesOnWhenResumed) {
+  int jobs = 0;
+  model_job_hook_ = [&jobs](int) { ++jobs; };
+  open();  // with the hook
+  msg::StudyCommand c;
+  c.correlation_id(++correlation_);
+  c.client_id("test");
+  c.kind(msg::COMMAND_SUBMIT);
+  c.study_yaml("name: t\nbudget: 10\ninitial_points: 4\nlockstep: 2\nrollout: {entrain_s: 1, eval_s: 1}\n");
+  coordinator_->handle_command(c, now_);
+  const auto id = out_.replies.back().study_id();
+  worker("a", 2);
+  settle(now_ += 0.01);
+  ASSERT_EQ(out_.candidates.size(), 2u);
+  msg::StudyCommand pause;
+  pause.correlation_id(++correlation_);
+  pause.client_id("test");
+  pause.kind(msg::COMMAND_PAUSE);
+  pause.study_id(id);
+  coordinator_->handle_command(pause, now_);
+  answer_all();  // both reports arrive while paused: they wait, untold
+  const int jobs_when_paused = jobs;
+  for (int i = 0; i < 20; ++i) settle(now_ += 0.1);
+  EXPECT_EQ(jobs, jobs_when_paused) << "a paused lockstep study ran model jobs";
+  EXPECT_EQ(out_.candidates.size(), 2u);
+  pause.kind(msg::COMMAND_RESUME);
+  pause.correlation_id(++correlation_);
+  coordinator_->handle_command(pause, now_);
+  for (int round = 0; round < 40 && out_.states.back().completed() < 10u; ++round) {
+    answer_all();
+    settle(now_ += 0.1);
+  }
+  EXPECT_EQ(out_.states.back().completed(), 10u);
+  EXPECT_EQ(out_.candidates.size(), 10u);
+}
+
 TEST_F(CoordinatorTest, DuplicateAndForgedReportsAreNotCounted) {
   submit(5, 5);
   worker("a", 2);
