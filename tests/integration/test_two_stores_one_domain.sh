@@ -10,6 +10,11 @@ PIDS+=($!)
 "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --store "$WORK/b.db" --localhost-only >"$WORK/b.log" 2>&1 &
 PIDS+=($!)
 start_worker w --slots 2 --fake-rollout-ms 30
+# Both optimizers must know the worker before any report flows: a report is released once its candidate is
+# disposed, so an optimizer that matched the worker late could miss every one of the other store's reports
+# (seen once in CI: b's study was done before a had heard of the worker).
+both_see_worker() { grep -q "worker w joined" "$WORK/a.log" && grep -q "worker w joined" "$WORK/b.log"; }
+wait_until 30 both_see_worker || fail "the optimizers did not both see the worker"
 has_a_study() { [[ $(sql "$1" "select count(*) from studies" 2>/dev/null || echo 0) -ge 1 ]]; }
 both_have_a_study() { has_a_study "$WORK/a.db" && has_a_study "$WORK/b.db"; }
 # A submit reaches the optimizers whose readers have matched the client: re-send until both hold a study
