@@ -62,11 +62,13 @@ class CoordinatorTest : public ::testing::Test {
     c.client_id("test");
     c.kind(msg::COMMAND_SUBMIT);
     c.study_yaml("name: t\nbudget: " + std::to_string(budget) + "\ninitial_points: " + std::to_string(initial) +
-                 "\nrollout: {entrain_s: 1, eval_s: 1}\n");
+                 "\nrollout: {entrain_s: 1, eval_s: 1}\n" + extra_study_yaml_);
     coordinator_->handle_command(c, now_);
     EXPECT_TRUE(out_.replies.back().ok()) << out_.replies.back().message().to_string();
     return static_cast<int>(out_.replies.back().study_id());
   }
+  std::string extra_study_yaml_;  // appended to submit()'s study file
+  int fall_every_ = 0;            // one_slot_study: every n-th trial falls (0: none)
   std::vector<std::map<std::string, double>> one_slot_study(int answers, int restart_after);
  public:
   std::map<int, std::map<std::string, double>> run_two_worker_study(int lockstep, bool newest_first,
@@ -423,7 +425,12 @@ std::vector<std::map<std::string, double>> CoordinatorTest::one_slot_study(int a
     }
     const msg::Candidate c = out_.candidates.back();
     if (k >= restart_after) issued.push_back(dds::from_wire(c.parameters()));
-    coordinator_->handle_report(report_for(c, 1.0 + std::sin(0.7 * c.trial_id())), now_ += 0.01);
+    msg::RolloutReport r = report_for(c, 1.0 + std::sin(0.7 * c.trial_id()) + 0.1);
+    if (fall_every_ > 0 && c.trial_id() % fall_every_ == 0) {
+      r.fell(true);
+      r.cost(15.0);
+    }
+    coordinator_->handle_report(r, now_ += 0.01);
     settle(now_ += 0.01);
   }
   issued.push_back(dds::from_wire(out_.candidates.back().parameters()));
@@ -436,6 +443,19 @@ TEST_F(CoordinatorTest, ARestartProposesExactlyWhatTheUninterruptedRunWould) {
   // from the saved model state and holds each stored observation exactly once.
   const auto uninterrupted = one_slot_study(42, 0);
   const auto restarted = one_slot_study(42, 36);
+  ASSERT_EQ(restarted.size(), 7u);
+  for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
+}
+
+TEST_F(CoordinatorTest, AFallModelStudyLearnsFromReportedFallsAndRestartsExactly) {
+  // Every 4th trial falls. With fall_model the falls reach the optimizer (its proposals differ from the
+  // same study without the model), from live reports and from the store after a restart alike.
+  fall_every_ = 4;
+  const auto without = one_slot_study(42, 0);
+  extra_study_yaml_ = "fall_model: true\n";
+  const auto uninterrupted = one_slot_study(42, 0);
+  const auto restarted = one_slot_study(42, 36);
+  EXPECT_NE(std::vector(uninterrupted.begin() + 31, uninterrupted.end()), std::vector(without.begin() + 31, without.end()));
   ASSERT_EQ(restarted.size(), 7u);
   for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
 }

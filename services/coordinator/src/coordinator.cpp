@@ -34,11 +34,16 @@ msg::StudyStatus status_of(const std::string& state) {
 }
 
 nlohmann::json model_state_json(const bo::ModelState& m) {
-  return {{"observations", m.observations},
-          {"fits", m.fits},
-          {"have_hyperparameters", m.have_hyperparameters},
-          {"hyperparameters", std::vector<double>(m.hyperparameters.data(), m.hyperparameters.data() + m.hyperparameters.size())},
-          {"hedge_gains", {m.hedge_gains[0], m.hedge_gains[1], m.hedge_gains[2]}}};
+  nlohmann::json j = {{"observations", m.observations},
+                      {"fits", m.fits},
+                      {"have_hyperparameters", m.have_hyperparameters},
+                      {"hyperparameters", std::vector<double>(m.hyperparameters.data(), m.hyperparameters.data() + m.hyperparameters.size())},
+                      {"hedge_gains", {m.hedge_gains[0], m.hedge_gains[1], m.hedge_gains[2]}}};
+  if (m.have_fall_hyperparameters) {
+    j["fall_hyperparameters"] = std::vector<double>(m.fall_hyperparameters.data(),
+                                                    m.fall_hyperparameters.data() + m.fall_hyperparameters.size());
+  }
+  return j;
 }
 
 bo::ModelState model_state_from_json(const nlohmann::json& j) {
@@ -51,7 +56,21 @@ bo::ModelState model_state_from_json(const nlohmann::json& j) {
   const auto gains = j.at("hedge_gains").get<std::vector<double>>();
   if (gains.size() != 3) throw std::runtime_error("hedge_gains must hold 3 numbers");
   m.hedge_gains = Eigen::Vector3d(gains[0], gains[1], gains[2]);
+  if (j.contains("fall_hyperparameters")) {  // absent: no fall seen yet, or a store from before the fall model
+    const auto fall = j.at("fall_hyperparameters").get<std::vector<double>>();
+    m.have_fall_hyperparameters = true;
+    m.fall_hyperparameters = Eigen::Map<const Eigen::VectorXd>(fall.data(), static_cast<Eigen::Index>(fall.size()));
+  }
   return m;
+}
+
+// What the optimizer was told for a stored trial: its cost, or a failure; and whether it fell.
+bo::Observation stored_observation(const study::StoredTrial& t) {
+  bool fell = false;
+  if (t.ok && t.report.is_object() && t.report.contains("fell") && t.report["fell"].is_boolean()) {
+    fell = t.report["fell"].get<bool>();
+  }
+  return bo::Observation{t.x, t.cost, !t.ok, fell};
 }
 
 }  // namespace
@@ -166,15 +185,15 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     }
     for (const auto* t : done) {
       if (t->trial_id == static_cast<int>(observations.size()) && observations.size() < told) {
-        observations.push_back({t->x, t->cost, !t->ok});
+        observations.push_back(stored_observation(*t));
         s.told_trials.push_back(t->trial_id);
       } else {
-        s.untold.emplace_back(t->trial_id, bo::Observation{t->x, t->cost, !t->ok});
+        s.untold.emplace_back(t->trial_id, stored_observation(*t));
       }
     }
   } else {
     for (const auto* t : done) {
-      observations.push_back({t->x, t->cost, !t->ok});
+      observations.push_back(stored_observation(*t));
       s.told_trials.push_back(t->trial_id);
     }
   }
@@ -819,7 +838,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
 }
 
 void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
-  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.cost() : 0.0, !r.ok()});
+  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.cost() : 0.0, !r.ok(), r.ok() && r.fell()});
   account_report(s, trial_id, x, r);
 }
 
