@@ -409,6 +409,36 @@ TEST_F(CoordinatorTest, AWorkerWhoseLeaseExpiredGetsOneCandidateAtATimeUntilItRe
   EXPECT_EQ(sent_to("greedy").size(), 18u);
 }
 
+TEST_F(CoordinatorTest, AWorkerOnProbationGetsWorkOnlyWhenNoOtherWorkerHasAFreeSlot) {
+  submit(3, 3);
+  worker("greedy", 3);
+  coordinator_->tick(now_);
+  ASSERT_EQ(sent_to("greedy").size(), 3u);
+  for (int i = 0; i < 67; ++i) {  // its three leases expire; it holds one of them again
+    worker("greedy", 3);
+    coordinator_->tick(now_ += 1.0);
+  }
+  ASSERT_TRUE(coordinator_->on_probation("greedy"));
+  ASSERT_EQ(sent_to("greedy").size(), 4u);
+  // An honest worker with 2 slots joins: it gets the two waiting re-issues. When greedy's lease expires
+  // again, that trial goes to the honest worker (once it has a free slot), not back to greedy.
+  worker("honest", 2);
+  coordinator_->tick(now_ += 0.1);
+  ASSERT_EQ(sent_to("honest").size(), 2u);
+  for (const auto& c : sent_to("honest")) coordinator_->handle_report(report_for(c, 1.0), now_);
+  for (int i = 0; i < 67; ++i) {
+    worker("greedy", 3);
+    worker("honest", 2);
+    coordinator_->tick(now_ += 1.0);
+  }
+  ASSERT_EQ(sent_to("honest").size(), 3u);
+  EXPECT_EQ(sent_to("honest").back().trial_id(), sent_to("greedy").back().trial_id());
+  EXPECT_EQ(sent_to("greedy").size(), 4u);
+  coordinator_->handle_report(report_for(sent_to("honest").back(), 1.0), now_);
+  coordinator_->tick(now_ += 1.0);
+  EXPECT_EQ(out_.states.back().state(), msg::STUDY_DONE);
+}
+
 TEST_F(CoordinatorTest, AfterARestartTheStoredAssignmentStillDecidesWhoMayReport) {
   submit(4, 4);
   worker("a", 1);

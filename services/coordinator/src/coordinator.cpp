@@ -449,15 +449,21 @@ std::vector<Coordinator::Worker*> Coordinator::free_slots(bool hardware) {
       free[&w] = slots_free(w);
     }
   }
+  // Workers on probation come last: work goes to one only when no worker in good standing has a slot.
+  // Otherwise the same never-answering worker would take the same re-issued trial lease after lease (seen
+  // in deploy.forged_identity: the study's last trial stalled until the rogue left).
+  std::stable_partition(ready.begin(), ready.end(), [this](const Worker* w) { return probation_.count(w->id) == 0; });
   std::vector<Worker*> slots;
-  bool any = true;
-  while (any) {
-    any = false;
-    for (Worker* w : ready) {
-      if (free[w] > 0) {
-        slots.push_back(w);
-        --free[w];
-        any = true;
+  for (const bool on_probation : {false, true}) {
+    bool any = true;
+    while (any) {
+      any = false;
+      for (Worker* w : ready) {
+        if ((probation_.count(w->id) > 0) == on_probation && free[w] > 0) {
+          slots.push_back(w);
+          --free[w];
+          any = true;
+        }
       }
     }
   }
