@@ -47,6 +47,7 @@ double monotonic_now_s() {
 
 struct WorkerGone {
   std::uint64_t key;
+  std::optional<std::string> disposed_by;  // with DDS-Security: the disposing participant's CN
 };
 struct ModelResult {};  // a model job finished: wake up and apply it
 // A worker's sample with the identity DDS-Security authenticated for its writer (nothing without security),
@@ -148,7 +149,13 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
       [&](const msg::WorkerAnnouncement& w, const dds::SampleOrigin& o) {
         queue.push(Event{From<msg::WorkerAnnouncement>{w, sender(o)}});
       },
-      [&](const msg::WorkerAnnouncement& key, dds::InstanceGone) { queue.push(Event{WorkerGone{key.worker_key()}}); });
+      [&](const msg::WorkerAnnouncement& key, dds::InstanceGone gone) {
+        // A dispose is a sample like any other: with DDS-Security only the worker's own identity may send it
+        // (an unknown sender is ""). Lost writers and liveliness are not anyone's claim: no identity.
+        std::optional<std::string> by;
+        if (secure && gone.disposed) by = sender(gone.origin).value_or("");
+        queue.push(Event{WorkerGone{key.worker_key(), by}});
+      });
   spdlog::info("optimizer on domain {} with store {} ({} studies, {} model threads)", domain, store_path,
                coordinator.studies(), model_threads);
 
@@ -166,7 +173,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
               if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
               else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) coordinator.handle_report(e.sample, now, e.sender);
               else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) coordinator.handle_worker(e.sample, now, e.sender);
-              else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now);
+              else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now, e.disposed_by);
             },
             event.sample);
       } catch (const study::StoreWriteError&) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # DDS-Security binds a worker id to a certificate: a participant with a valid worker certificate for
 # identity "mallory" (make-study-pki.sh mallory:worker) reads the candidates sent to the honest worker
-# "worker" and answers each at once as "worker" with cost 1e-6, and announces itself as "worker" too.
+# "worker" and answers each at once as "worker" with cost 1e-6, announces itself as "worker" too and
+# disposes worker's announcement (which would drop the honest worker).
 # None of it counts (the optimizer refuses every such sample, naming mallory's CN), and the study completes
 # through the honest worker with its real costs. Mallory also announces 16 slots as itself and never answers:
 # after its first lease expires it is on probation and holds at most one candidate at a time (2 allowed for
@@ -57,6 +58,9 @@ refused=$(grep -c "rejected report for study 1 trial [0-9]* from worker: the sen
 [[ $refused -ge 1 ]] || fail "no forged report was refused by name"
 grep -q "rejected worker announcement worker: the sender's certificate is CN=mallory" "$WORK/optimizer.log" ||
   fail "mallory's announcement as worker was not refused"
+grep -q "rejected dispose of worker worker: the sender's certificate is CN=mallory" "$WORK/optimizer.log" ||
+  fail "mallory's dispose of worker's announcement was not refused"
+grep -q "worker worker left the domain" "$WORK/optimizer.log" && fail "mallory's dispose dropped the honest worker"
 # A slot count is a claim: after its first lease expired mallory held one candidate at a time.
 [[ -n $own && $own -ge 2 ]] || fail "mallory took fewer than 2 candidates (probation not exercised): $rogue"
 grep -q "worker mallory on probation" "$WORK/optimizer.log" || fail "mallory was never put on probation"

@@ -3,7 +3,7 @@
 // For SECONDS it
 //  * announces itself as OWN_ID with SLOTS slots every 0.5 s, takes the candidates sent to OWN_ID and never
 //    answers them (a slot count it does not honour);
-//  * announces itself as VICTIM_ID too (impersonation);
+//  * announces itself as VICTIM_ID too (impersonation), and disposes VICTIM_ID's announcement each time;
 //  * answers every candidate sent to VICTIM_ID at once, as VICTIM_ID, with cost 1e-6 (a forged report
 //    that would be the study's best by far if it counted).
 // KEYSTORE '-': no DDS-Security. SIGTERM ends it early. Prints one line of counts at the end:
@@ -100,13 +100,15 @@ int main(int argc, char** argv) {
     w.accepting(true);
     w.heartbeat_period_s(0.5);
     workers.write(w);
+    return w;
   };
   const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
   while (Clock::now() < end && !g_stop) {
     announce(own, slots);
-    announce(victim, 64);
+    // ...and disposes the victim's announcement (unregister: autodispose), which would drop the victim.
+    workers.unregister(announce(victim, 64));
     std::this_thread::sleep_for(500ms);
   }
   std::lock_guard<std::mutex> lock(mutex);

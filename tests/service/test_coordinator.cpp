@@ -366,6 +366,26 @@ TEST_F(CoordinatorTest, WithSecurityAReportCountsOnlyWhenTheSendersCertificateOw
   EXPECT_EQ(out_.states.back().best_cost(), 2.0);
 }
 
+TEST_F(CoordinatorTest, WithSecurityOnlyTheWorkersOwnIdentityMayDisposeItsAnnouncement) {
+  require_identity_ = true;
+  open();
+  submit(4, 4);
+  worker("a", 1, "a");
+  coordinator_->tick(now_);
+  ASSERT_EQ(sent_to("a").size(), 1u);
+  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string("mallory"));
+  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string(""));
+  EXPECT_EQ(coordinator_->live_workers(), 1);
+  EXPECT_EQ(coordinator_->rejected_samples(), 2u);
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(out_.candidates.size(), 1u);  // nothing re-issued
+  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string("a"));  // its own dispose
+  EXPECT_EQ(coordinator_->live_workers(), 0);
+  worker("b", 1, "b");
+  coordinator_->handle_worker_gone(dds::worker_key("b"), now_, std::nullopt);  // no writer left: no claim
+  EXPECT_EQ(coordinator_->live_workers(), 0);
+}
+
 TEST_F(CoordinatorTest, WithoutSecurityTheSendersIdentityIsNotChecked) {
   submit(2, 2);
   worker("a", 1, "someone-else");  // there is no identity without security: taken as written

@@ -365,9 +365,14 @@ void Coordinator::handle_worker(const msg::WorkerAnnouncement& w, double now_s,
   }
 }
 
-void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s) {
+void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s,
+                                     const std::optional<std::string>& disposed_by) {
   for (const auto& [id, w] : workers_) {
-    if (w.key == worker_key) return drop_worker(id, "left the domain", now_s);
+    if (w.key != worker_key) continue;
+    if (disposed_by) {
+      if (auto why = identity_refusal(id, disposed_by)) return reject("dispose of worker " + id, *why);
+    }
+    return drop_worker(id, "left the domain", now_s);
   }
 }
 

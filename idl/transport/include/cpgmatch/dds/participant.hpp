@@ -162,6 +162,9 @@ class Writer {
 // What a reader reports besides data: an instance whose writer vanished or disposed it.
 struct InstanceGone {
   bool disposed = false;  // false: no writer is alive any more (crash, lost liveliness)
+  // A dispose: the participant whose writer disposed it (who may speak for the instance is the caller's
+  // question, e.g. with DDS-Security). Unknown (zero) when no writer is left.
+  SampleOrigin origin{};
 };
 
 template <class T>
@@ -214,7 +217,8 @@ class Reader {
           if (it == last_by_instance.end()) continue;
           const T key = it->second;
           last_by_instance.erase(it);
-          on_gone(key, InstanceGone{info.instance_state == dds::NOT_ALIVE_DISPOSED_INSTANCE_STATE});
+          on_gone(key, InstanceGone{info.instance_state == dds::NOT_ALIVE_DISPOSED_INSTANCE_STATE,
+                                    SampleOrigin{info.sample_identity.writer_guid().guidPrefix}});
         }
       }
     }

@@ -110,7 +110,11 @@ class Coordinator {
                      const std::optional<std::string>& sender_identity = std::nullopt);
   void handle_worker(const msg::WorkerAnnouncement& announcement, double now_s,
                      const std::optional<std::string>& sender_identity = std::nullopt);
-  void handle_worker_gone(std::uint64_t worker_key, double now_s);
+  // `disposed_by`: for a dispose with DDS-Security, the disposing participant's CN ("" unknown); it must own
+  // the worker id, or the dispose is refused (another identity cannot drop a worker). Nothing: no check
+  // (no security, or the worker's writers are gone).
+  void handle_worker_gone(std::uint64_t worker_key, double now_s,
+                          const std::optional<std::string>& disposed_by = std::nullopt);
   // Applies finished model results, expires silent workers and overdue leases, fills free slots (starting
   // model jobs for the points still needed), publishes changed study states.
   void tick(double now_s);
