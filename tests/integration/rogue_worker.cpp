@@ -6,7 +6,7 @@
 //  * announces itself as VICTIM_ID too (impersonation), and disposes VICTIM_ID's announcement each time;
 //  * answers every candidate sent to VICTIM_ID at once, as VICTIM_ID, with cost 1e-6 (a forged report
 //    that would be the study's best by far if it counted).
-// KEYSTORE '-': no DDS-Security. SIGTERM ends it early. Prints one line of counts at the end:
+// KEYSTORE '-': no DDS-Security; VICTIM_ID '-': no victim (only the greedy part). SIGTERM ends it early. Prints one line of counts at the end:
 //   forged F; own candidates C; most held at once after the first lease expired H
 // "Held" counts a candidate from its arrival until its lease_s is over (when the optimizer takes it back),
 // less 0.3 s of slack for the two clocks; it is what a slot count buys the worker.
@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
   Clock::time_point first_expiry = Clock::time_point::max();
   transport::Reader<msg::Candidate> candidates(p, [&](const msg::Candidate& c) {
     const std::string to = c.worker_id().to_string();
-    if (to == victim) {
+    if (to == victim && victim != "-") {
       msg::RolloutReport r;
       r.store_id(c.store_id());
       r.study_id(c.study_id());
@@ -108,7 +108,7 @@ int main(int argc, char** argv) {
   while (Clock::now() < end && !g_stop) {
     announce(own, slots);
     // ...and disposes the victim's announcement (unregister: autodispose), which would drop the victim.
-    workers.unregister(announce(victim, 64));
+    if (victim != "-") workers.unregister(announce(victim, 64));
     std::this_thread::sleep_for(500ms);
   }
   std::lock_guard<std::mutex> lock(mutex);
