@@ -45,7 +45,11 @@ int main(int argc, char** argv) {
   const auto slots = static_cast<std::uint32_t>(std::atoi(argv[5]));
   const double seconds = std::atof(argv[7]);
   if (keystore != "-") transport::select_security({keystore, enclave});
-  transport::Participant p(transport::ParticipantConfig{domain, "rogue-worker", true});
+  transport::ParticipantConfig config;
+  config.domain = domain;
+  config.name = "rogue-worker";
+  config.localhost_only = true;
+  transport::Participant p(config);
   transport::Writer<msg::RolloutReport> reports(p);
   transport::Writer<msg::WorkerAnnouncement> workers(p);
   std::mutex mutex;
