@@ -68,3 +68,26 @@ YAML
 }
 
 sql() { sqlite3 "$1" "$2"; }
+
+free_udp_port() {
+  python3 -c 'import socket; s=socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+}
+
+# Starts a Fast DDS discovery server on 127.0.0.1; sets DS_PORT and DS_PID. The server binary itself
+# (fastdds-tools), not the `fastdds discovery` wrapper: the wrapper runs it as a child, which the cleanup's
+# SIGKILL of the wrapper would leave running. A free port is only free when it was probed: under a parallel
+# ctest another process may take it before the server binds it (one run of 7 timed out after 60 s), so the
+# server must be seen holding its port before anyone uses it.
+server_holds_port() { ss -Hulpn "sport = :$DS_PORT" 2>/dev/null | grep -q "pid=$DS_PID,"; }
+start_discovery_server() {
+  local attempt
+  for attempt in 1 2 3; do
+    DS_PORT=$(free_udp_port)
+    fast-discovery-server -i 0 -l 127.0.0.1 -p "$DS_PORT" >"$WORK/discovery.log" 2>&1 &
+    DS_PID=$!; PIDS+=("$DS_PID")
+    if wait_until 5 server_holds_port; then return 0; fi
+    echo "discovery server attempt $attempt: port $DS_PORT not held by it; another port" >&2
+    kill "$DS_PID" 2>/dev/null || true
+  done
+  fail "the discovery server never held its port: $(cat "$WORK/discovery.log")"
+}

@@ -11,10 +11,6 @@ relaxed_robot_yaml() {  # relaxed_robot_yaml FILE
       -e 's/max_consecutive_overruns: 5 /max_consecutive_overruns: 100 /' "$CONFIGS/robot/morti.yaml" >"$1"
 }
 
-free_udp_port() {
-  python3 -c 'import socket; s=socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
-}
-
 start_emulator() {  # start_emulator URI [extra args]; sets EMU_PID
   local uri=$1; shift
   "$BIN/cpgmatch-robot-emulator" --can "$uri" "$@" >>"$WORK/emulator.log" 2>&1 &

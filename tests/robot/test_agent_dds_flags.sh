@@ -56,20 +56,7 @@ hardware_reports_from() {  # hardware_reports_from STORE ID
 # ---- cluster: discovery through a Fast DDS discovery server only ------------------------------------------
 # No --localhost-only anywhere: the cluster profile is a discovery-server client with multicast off, so the
 # processes can only meet through the server.
-# The server binary itself (fastdds-tools), not the `fastdds discovery` wrapper: the wrapper runs it as a
-# child, which the cleanup's SIGKILL of the wrapper would leave running. A free port is only free when it
-# was probed: under a parallel ctest another process may take it before the server binds it (one run of
-# 7 timed out here after 60 s), so the server must be seen holding its port before anyone uses it.
-server_holds_port() { ss -Hulpn "sport = :$DS_PORT" 2>/dev/null | grep -q "pid=$DS_PID,"; }
-for attempt in 1 2 3; do
-  DS_PORT=$(free_udp_port)
-  fast-discovery-server -i 0 -l 127.0.0.1 -p "$DS_PORT" >"$WORK/discovery.log" 2>&1 &
-  DS_PID=$!; PIDS+=("$DS_PID")
-  if wait_until 5 server_holds_port; then break; fi
-  echo "discovery server attempt $attempt: port $DS_PORT not held by it; another port" >&2
-  kill "$DS_PID" 2>/dev/null || true
-  ((attempt < 3)) || fail "the discovery server never held its port: $(cat "$WORK/discovery.log")"
-done
+start_discovery_server
 CLUSTER=(--dds-profile cluster --discovery-server "127.0.0.1:$DS_PORT")
 "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --store "$WORK/cluster.db" "${CLUSTER[@]}" >>"$WORK/optimizer-cluster.log" 2>&1 &
 OPT_PID=$!; PIDS+=("$OPT_PID")
