@@ -114,7 +114,8 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
     }
   };
   dds::Participant participant(dds_config);
-  DdsOutbox outbox(participant);
+  DdsOutbox dds_outbox(participant);
+  DeferredOutbox outbox(dds_outbox);
   service::Coordinator coordinator(
       store, outbox, options, [](const std::string& m) { spdlog::info("{}", m); },
       [](const std::string& m) { spdlog::warn("{}", m); });
@@ -132,31 +133,55 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   auto log_latency = [&] {
     spdlog::info("event loop: sample arrival to handled: {}; tick: {}", sample_latency.summary(), tick_duration.summary());
   };
+  // Each burst of samples drained from the queue is handled in one store transaction, and so is each tick;
+  // what they publish is held until that transaction commits (DeferredOutbox), so nothing is acknowledged
+  // that the store does not hold, as when each write committed on its own, at one commit per burst.
+  auto in_one_transaction = [&](auto&& body) {
+    study::StudyStore::Batch batch(store);
+    outbox.hold();
+    try {
+      body();
+      batch.commit();
+    } catch (...) {
+      outbox.discard();  // rolled back: none of it happened
+      throw;
+    }
+    outbox.release();
+  };
   while (!g_stop) {
-    for (auto& event : queue.drain(std::chrono::milliseconds(20))) {
-      const double now = monotonic_now_s();
-      try {
-        std::visit(
-            [&](auto& e) {
-              using T = std::decay_t<decltype(e)>;
-              if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
-              else if constexpr (std::is_same_v<T, msg::RolloutReport>) coordinator.handle_report(e, now);
-              else if constexpr (std::is_same_v<T, msg::WorkerAnnouncement>) coordinator.handle_worker(e, now);
-              else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now);
-            },
-            event.sample);
-      } catch (const study::StoreWriteError&) {
-        throw;  // disk full, read-only store: stop and say so (run_reporting_errors); nothing unrecorded was acknowledged
-      } catch (const std::exception& e) {
-        // A sample that slipped past validation must not take the service down.
-        spdlog::error("event dropped: {}", e.what());
-      }
-      if (!std::holds_alternative<ModelResult>(event.sample)) {
-        sample_latency.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - event.arrived).count());
+    auto events = queue.drain(std::chrono::milliseconds(20));
+    if (!events.empty()) {
+      in_one_transaction([&] {
+        for (auto& event : events) {
+          const double now = monotonic_now_s();
+          try {
+            std::visit(
+                [&](auto& e) {
+                  using T = std::decay_t<decltype(e)>;
+                  if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
+                  else if constexpr (std::is_same_v<T, msg::RolloutReport>) coordinator.handle_report(e, now);
+                  else if constexpr (std::is_same_v<T, msg::WorkerAnnouncement>) coordinator.handle_worker(e, now);
+                  else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now);
+                },
+                event.sample);
+          } catch (const study::StoreWriteError&) {
+            throw;  // disk full, read-only store: stop and say so (run_reporting_errors); nothing unrecorded was acknowledged
+          } catch (const std::exception& e) {
+            // A sample that slipped past validation must not take the service down.
+            spdlog::error("event dropped: {}", e.what());
+          }
+        }
+      });
+      // Handled = committed and its effects published.
+      const auto handled = std::chrono::steady_clock::now();
+      for (const auto& event : events) {
+        if (!std::holds_alternative<ModelResult>(event.sample)) {
+          sample_latency.add(std::chrono::duration<double>(handled - event.arrived).count());
+        }
       }
     }
     const auto tick_start = std::chrono::steady_clock::now();
-    coordinator.tick(monotonic_now_s());
+    in_one_transaction([&] { coordinator.tick(monotonic_now_s()); });
     tick_duration.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - tick_start).count());
     if (g_print_stats) {
       g_print_stats = 0;

@@ -56,6 +56,18 @@ bo::ModelState model_state_from_json(const nlohmann::json& j) {
 
 }  // namespace
 
+void DeferredOutbox::release() {
+  holding_ = false;
+  auto held = std::move(held_);
+  held_.clear();
+  for (auto& send : held) send(target_);
+}
+
+void DeferredOutbox::discard() {
+  holding_ = false;
+  held_.clear();
+}
+
 Coordinator::Coordinator(study::StudyStore& store, Outbox& outbox, CoordinatorOptions options, LogFn log_info,
                          LogFn log_warning)
     : store_(store),
