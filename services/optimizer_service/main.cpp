@@ -83,10 +83,11 @@ class DdsOutbox final : public Outbox {
 };
 
 int run(int domain, const std::string& store_path, bool full_durability, double worker_timeout_s, bool localhost_only,
-        int model_threads) {
+        int model_threads, int acquisition_threads) {
   dds::validate_domain(domain);
   if (worker_timeout_s <= 0.0) throw InputError("--worker-timeout must be > 0");
   if (model_threads < 1 || model_threads > 64) throw InputError("--model-threads must be in [1, 64]");
+  if (acquisition_threads < 1 || acquisition_threads > 16) throw InputError("--acquisition-threads must be in [1, 16]");
   const study::StoreLock lock(store_path);  // before the store is touched: one optimizer per store
   std::unique_ptr<study::StudyStore> opened;
   try {
@@ -101,6 +102,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   options.worker_timeout_s = worker_timeout_s;
   options.base_parameters = load_parameters(sim::default_params_path());
   options.model_threads = model_threads;
+  options.acquisition_threads = acquisition_threads;
   service::EventQueue<Event> queue;
   options.on_model_result = [&queue] { queue.push(Event{ModelResult{}}); };
 
@@ -207,6 +209,7 @@ int main(int argc, char** argv) {
   bool full_durability = false, localhost_only = false;
   double worker_timeout_s = 2.5;
   int model_threads = service::default_model_threads();
+  int acquisition_threads = std::min(service::default_model_threads(), 2);
   std::string log_level = "info";
   app.add_option("--domain", domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
   app.add_option("--store", store, "SQLite study store; created if missing, resumed if present")->capture_default_str();
@@ -215,6 +218,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--model-threads", model_threads,
                  "threads for GP fits and acquisition optimisation (a study's model work runs on one at a time)")
+      ->capture_default_str();
+  app.add_option("--acquisition-threads", acquisition_threads,
+                 "threads one model job uses for its acquisition search (the same proposals for any number)")
       ->capture_default_str();
   app.add_flag("--localhost-only", localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   app.add_option("--log-level", log_level, "log level")
@@ -240,6 +246,6 @@ int main(int argc, char** argv) {
     runtime::export_config_dir();
     runtime::apply_dds_flags(dds_flags);
     return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
-                        worker_timeout_s, localhost_only, model_threads);
+                        worker_timeout_s, localhost_only, model_threads, acquisition_threads);
   });
 }

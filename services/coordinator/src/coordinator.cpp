@@ -191,6 +191,7 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     }
   }
   s.optimizer = std::make_shared<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
+  s.optimizer->set_threads(options_.acquisition_threads);
   s.model = snapshot_of(*s.optimizer, s.told_trials);
   for (const auto* t : done) {
     const int trial_id = t->trial_id;

@@ -12,7 +12,6 @@ namespace {
 
 const double kSqrt5 = std::sqrt(5.0);
 
-double matern52(double r) { return (1.0 + kSqrt5 * r + 5.0 / 3.0 * r * r) * std::exp(-kSqrt5 * r); }
 
 }  // namespace
 
@@ -44,7 +43,10 @@ Eigen::MatrixXd GaussianProcess::kernel(const Eigen::MatrixXd& A, const Eigen::M
   Eigen::MatrixXd r2 = (-2.0 * As * Bs.transpose()).colwise() + a2;
   r2.rowwise() += b2.transpose();
   const double amp = std::exp(h.log_amplitude);
-  return r2.unaryExpr([amp](double v) { return amp * matern52(std::sqrt(std::max(v, 0.0))); });
+  // Array expressions, so that sqrt and exp run vectorised (Eigen's SIMD exp, within an ulp or two of
+  // libm's): the kernel of the acquisition search's 1000 candidates is a large share of a proposal.
+  const Eigen::ArrayXXd r = r2.array().max(0.0).sqrt();
+  return (amp * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r.square()) * (-kSqrt5 * r).exp()).matrix();
 }
 
 Eigen::VectorXd GaussianProcess::lower_bounds(int d) const {
@@ -72,16 +74,12 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   const Eigen::MatrixXd Xs = X_ * inv_l.matrix().asDiagonal();
   // Scaled distances r and exp(-sqrt5 r), once per pair: the kernel and every length-scale gradient use
   // them (this function is most of a hyperparameter fit, and exp most of its kernel work).
-  Eigen::MatrixXd R(n, n), E(n, n);
+  Eigen::MatrixXd R(n, n);
   for (int b = 0; b < n; ++b) {
     R(b, b) = 0.0;
-    E(b, b) = 1.0;
-    for (int a = b + 1; a < n; ++a) {
-      const double r = (Xs.row(a) - Xs.row(b)).norm();
-      R(a, b) = R(b, a) = r;
-      E(a, b) = E(b, a) = std::exp(-kSqrt5 * r);
-    }
+    for (int a = b + 1; a < n; ++a) R(a, b) = R(b, a) = (Xs.row(a) - Xs.row(b)).norm();
   }
+  const Eigen::MatrixXd E = (-kSqrt5 * R.array()).exp().matrix();  // vectorised exp
   const Eigen::MatrixXd Kf = amp * ((1.0 + kSqrt5 * R.array() + 5.0 / 3.0 * R.array().square()) * E.array()).matrix();
   Eigen::MatrixXd K = Kf;
   const double noise = std::exp(h.log_noise);
@@ -203,19 +201,61 @@ void GaussianProcess::refit_fixed(const Eigen::MatrixXd& X, const Eigen::VectorX
   factorise();
 }
 
+void GaussianProcess::append_fixed(const Eigen::MatrixXd& U, const Eigen::VectorXd& y) {
+  const int m = static_cast<int>(U.rows());
+  if (m == 0) return;
+  const int n = n_;
+  Eigen::MatrixXd X(n + m, X_.cols());
+  X << X_, U;
+  Eigen::VectorXd y_std(n + m);
+  y_std << y_std_, (y.array() - y_mean_) / y_scale_;  // what refit_fixed() computes from the same targets
+  auto refactorise = [&] {
+    X_ = std::move(X);
+    n_ = n + m;
+    y_std_ = std::move(y_std);
+    factorise();
+  };
+  if (n == 0) return refactorise();
+  // [K11 K12; K21 K22] = [L 0; B^T C][L^T B; 0 C^T]: B = L^-1 K12, C C^T = K22 - B^T B.
+  const Eigen::MatrixXd B = L_.triangularView<Eigen::Lower>().solve(kernel(X_, U, hyper_));
+  Eigen::MatrixXd S = kernel(U, U, hyper_);
+  S.diagonal().array() += std::exp(hyper_.log_noise) + jitter_;
+  S.noalias() -= B.transpose() * B;
+  Eigen::LLT<Eigen::MatrixXd> schur(S);
+  if (schur.info() != Eigen::Success) return refactorise();
+  Eigen::MatrixXd L(n + m, n + m);
+  L.topLeftCorner(n, n) = L_;
+  L.topRightCorner(n, m).setZero();
+  L.bottomLeftCorner(m, n) = B.transpose();
+  L.bottomRightCorner(m, m) = schur.matrixL();
+  L_ = std::move(L);
+  X_ = std::move(X);
+  n_ = n + m;
+  y_std_ = std::move(y_std);
+  alpha_ = solve(y_std_);
+}
+
+Eigen::VectorXd GaussianProcess::solve(const Eigen::VectorXd& b) const {
+  Eigen::VectorXd x = b;
+  L_.triangularView<Eigen::Lower>().solveInPlace(x);
+  L_.transpose().triangularView<Eigen::Upper>().solveInPlace(x);
+  return x;
+}
+
 void GaussianProcess::factorise() {
   Eigen::MatrixXd K = kernel(X_, X_, hyper_);
   K.diagonal().array() += std::exp(hyper_.log_noise);
   jitter_ = 0.0;
-  llt_.compute(K);
+  Eigen::LLT<Eigen::MatrixXd> llt(K);
   double add = 1e-10 * std::max(1.0, K.diagonal().mean());
-  while (llt_.info() != Eigen::Success) {
+  while (llt.info() != Eigen::Success) {
     K.diagonal().array() += add;
     jitter_ += add;
     add *= 10.0;
-    llt_.compute(K);
+    llt.compute(K);
   }
-  alpha_ = llt_.solve(y_std_);
+  L_ = llt.matrixL();
+  alpha_ = solve(y_std_);
 }
 
 Prediction GaussianProcess::predict(const Eigen::VectorXd& x) const {
@@ -238,7 +278,7 @@ Prediction GaussianProcess::predict_with_gradient(const Eigen::VectorXd& x, Eige
   }
   Prediction p;
   const double mean_std = k.dot(alpha_);
-  const Eigen::VectorXd Kinv_k = llt_.solve(k);
+  const Eigen::VectorXd Kinv_k = solve(k);
   const double var = std::max(amp - k.dot(Kinv_k), 1e-12 * amp);
   p.mean = y_mean_ + y_scale_ * mean_std;
   p.std = y_scale_ * std::sqrt(var);
@@ -254,7 +294,7 @@ void GaussianProcess::predict_many(const Eigen::MatrixXd& C, Eigen::VectorXd* me
   const Eigen::MatrixXd Kc = kernel(X_, C.transpose(), hyper_);  // n x m
   const double amp = std::exp(hyper_.log_amplitude);
   *mean = (Kc.transpose() * alpha_).array() * y_scale_ + y_mean_;
-  const Eigen::MatrixXd V = llt_.matrixL().solve(Kc);
+  const Eigen::MatrixXd V = L_.triangularView<Eigen::Lower>().solve(Kc);
   const Eigen::ArrayXd var = (amp - V.colwise().squaredNorm().transpose().array()).max(1e-12 * amp);
   *std = y_scale_ * var.sqrt();
 }

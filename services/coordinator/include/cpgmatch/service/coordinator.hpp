@@ -105,6 +105,9 @@ struct CoordinatorOptions {
   // Threads for model fits and acquisition optimisation (0: run them inline on the event thread, which
   // is deterministic to the call and what unit tests of the bookkeeping use).
   int model_threads = 0;
+  // Threads one model job uses for its acquisition search (bo::BayesianOptimizer::set_threads): with
+  // fewer busy studies than cores, a study's job uses the idle core too. Proposals do not depend on it.
+  int acquisition_threads = 1;
   // Called from a model thread whenever a model job has finished: wake the event loop so it applies the
   // result at once instead of at its next timer tick. Must only signal.
   std::function<void()> on_model_result;

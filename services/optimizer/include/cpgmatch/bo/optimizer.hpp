@@ -26,6 +26,7 @@
 // (re-imputed at every fit), which pushes the search away from them without inventing a scale.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <random>
@@ -131,6 +132,10 @@ class BayesianOptimizer {
   const OptimizerOptions& options() const { return options_; }
   const GaussianProcess& model() const { return gp_; }
   bool model_ready() const { return gp_.fitted() && !next_proposals_.empty(); }
+  // Threads for the acquisition search (candidate posterior and local refinements, this one included).
+  // Not part of the optimizer's state: what it proposes is the same, to the last bit, for any number.
+  void set_threads(int threads) { threads_ = std::max(1, threads); }
+  int threads() const { return threads_; }
 
   // Replays `observations` through tell(); the result proposes exactly what the original would, at the
   // price of one hyperparameter fit per observation after the initial design.
@@ -177,6 +182,7 @@ class BayesianOptimizer {
   int fits_ = 0;
   HedgeState hedge_;
   std::vector<Eigen::VectorXd> next_proposals_;  // unit cube; per base acquisition (EI, LCB, PI) or one
+  int threads_ = 1;
 };
 
 }  // namespace cpgmatch::bo
