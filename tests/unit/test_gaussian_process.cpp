@@ -41,12 +41,31 @@ TEST(GaussianProcess, PosteriorMatchesHandComputedTwoPointCase) {
   EXPECT_NEAR(p.std, std::sqrt(var), 1e-9);
 }
 
+TEST(GaussianProcess, TheInverseFromTheCholeskyFactorIsTheInverse) {
+  // Sizes below, at and across the 32-column blocks.
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int n : {1, 7, 32, 33, 100}) {
+    Eigen::MatrixXd A(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) A(i, j) = g(rng);
+    Eigen::MatrixXd K = A * A.transpose() + n * Eigen::MatrixXd::Identity(n, n);
+    Eigen::LLT<Eigen::MatrixXd> llt(K);
+    const Eigen::MatrixXd L = llt.matrixL();
+    const Eigen::MatrixXd Kinv = inverse_from_cholesky(L);
+    const Eigen::MatrixXd reference = llt.solve(Eigen::MatrixXd::Identity(n, n));
+    EXPECT_LT((Kinv - reference).cwiseAbs().maxCoeff(), 1e-12 * reference.cwiseAbs().maxCoeff()) << "n = " << n;
+    EXPECT_EQ(Kinv, Kinv.transpose()) << "n = " << n;
+  }
+}
+
 TEST(GaussianProcess, MarginalLikelihoodGradientMatchesFiniteDifferences) {
+  for (int n : {12, 90}) {  // 90: several blocks of the inverse
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  Eigen::MatrixXd X(12, 3);
-  Eigen::VectorXd y(12);
-  for (int i = 0; i < 12; ++i) {
+  Eigen::MatrixXd X(n, 3);
+  Eigen::VectorXd y(n);
+  for (int i = 0; i < n; ++i) {
     for (int j = 0; j < 3; ++j) X(i, j) = u(rng);
     y[i] = std::sin(3 * X(i, 0)) + X(i, 1) * X(i, 2);
   }
@@ -62,7 +81,8 @@ TEST(GaussianProcess, MarginalLikelihoodGradientMatchesFiniteDifferences) {
     tp[i] += h;
     tm[i] -= h;
     const double fd = (gp.log_marginal_likelihood(tp, nullptr) - gp.log_marginal_likelihood(tm, nullptr)) / (2 * h);
-    EXPECT_NEAR(grad[i], fd, 1e-4 * std::max(1.0, std::abs(fd))) << "theta[" << i << "]";
+    EXPECT_NEAR(grad[i], fd, 1e-4 * std::max(1.0, std::abs(fd))) << "n = " << n << ", theta[" << i << "]";
+  }
   }
 }
 

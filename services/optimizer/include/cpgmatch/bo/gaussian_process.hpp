@@ -37,6 +37,9 @@ struct GpOptions {
   int max_evaluations = 200;  // per local L-BFGS run
 };
 
+// K^-1 from the lower Cholesky factor L of K (K = L L^T), symmetric; for the likelihood's gradient.
+Eigen::MatrixXd inverse_from_cholesky(const Eigen::MatrixXd& L);
+
 struct Prediction {
   double mean = 0.0;
   double std = 0.0;
