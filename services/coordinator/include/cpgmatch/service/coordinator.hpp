@@ -105,8 +105,9 @@ struct CoordinatorOptions {
   // Threads for model fits and acquisition optimisation (0: run them inline on the event thread, which
   // is deterministic to the call and what unit tests of the bookkeeping use).
   int model_threads = 0;
-  // Threads one model job uses for its acquisition search (bo::BayesianOptimizer::set_threads): with
-  // fewer busy studies than cores, a study's job uses the idle core too. Proposals do not depend on it.
+  // Threads one model job uses for its acquisition search (bo::BayesianOptimizer::set_threads) while fewer
+  // studies have model jobs than there are model threads (one busy study on two cores: it uses both);
+  // otherwise 1. Proposals do not depend on it.
   int acquisition_threads = 1;
   // Called from a model thread whenever a model job has finished: wake the event loop so it applies the
   // result at once instead of at its next timer tick. Must only signal.
@@ -252,6 +253,8 @@ class Coordinator {
   // Starts a model job for each study with reports to tell or free slots to ask for (per-tick cap).
   void start_model_jobs(const std::vector<Study*>& order, FreeSlots free);
   void start_model_job(Study& study, int ask);
+  // Sets how many threads the study's next job may use for its acquisition search (idle model threads).
+  void use_idle_model_threads(Study& study);
   static ModelSnapshot snapshot_of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials);
   void issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue);
   // A new report: queued for the study's next model job (which tells it and saves the model state), then accounted.
