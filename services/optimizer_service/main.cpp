@@ -154,9 +154,17 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   };
   while (!g_stop) {
     auto events = queue.drain(std::chrono::milliseconds(20));
-    if (!events.empty()) {
+    // A long burst goes in chunks (kMaxChunkEvents samples or kMaxChunk of handling, whichever comes
+    // first), so the first sample of a burst is not acknowledged only after the last one is handled.
+    constexpr std::size_t kMaxChunkEvents = 16;
+    constexpr auto kMaxChunk = std::chrono::milliseconds(2);
+    for (std::size_t first = 0; first < events.size();) {
+      std::size_t last = first;
       in_one_transaction([&] {
-        for (auto& event : events) {
+        const auto chunk_start = std::chrono::steady_clock::now();
+        while (last < events.size() && last - first < kMaxChunkEvents &&
+               std::chrono::steady_clock::now() - chunk_start < kMaxChunk) {
+          auto& event = events[last++];
           const double now = monotonic_now_s();
           try {
             std::visit(
@@ -178,11 +186,12 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
       });
       // Handled = committed and its effects published.
       const auto handled = std::chrono::steady_clock::now();
-      for (const auto& event : events) {
-        if (!std::holds_alternative<ModelResult>(event.sample)) {
-          sample_latency.add(std::chrono::duration<double>(handled - event.arrived).count());
+      for (std::size_t i = first; i < last; ++i) {
+        if (!std::holds_alternative<ModelResult>(events[i].sample)) {
+          sample_latency.add(std::chrono::duration<double>(handled - events[i].arrived).count());
         }
       }
+      first = last;
     }
     const auto tick_start = std::chrono::steady_clock::now();
     in_one_transaction([&] { coordinator.tick(monotonic_now_s()); });
