@@ -2,6 +2,7 @@
 # Creates (or extends) a DDS-Security keystore for cpgmatch, in the layout ROS 2 users know from sros2:
 #
 #   KEYSTORE/public/ca.cert.pem                     the study CA (identity CA = permissions CA, as in sros2)
+#   KEYSTORE/public/crl.pem                         its certificate revocation list (CRL), signed by the CA
 #   KEYSTORE/private/ca.key.pem                     its key (0600; keep it off the cluster)
 #   KEYSTORE/enclaves/governance.{xml,p7s}          domain and topic rules, signed by the CA
 #   KEYSTORE/enclaves/<name>/identity_ca.cert.pem   \
@@ -9,9 +10,19 @@
 #                            governance.p7s          |  --keystore KEYSTORE --enclave <name> loads
 #                            cert.pem key.pem        |  (PKI-DH authentication, access control,
 #                            permissions.{xml,p7s}  /   AES-GCM encryption)
+#                            crl.pem                    a copy of the CA's CRL (Fast DDS PKI-DH identity_crl)
 #
 #   make-study-pki.sh KEYSTORE                       CA + the enclaves optimizer, worker, operator, viewer
-#   make-study-pki.sh KEYSTORE NAME:ROLE ...         more enclaves, e.g. worker-node12:worker
+#   make-study-pki.sh KEYSTORE NAME:ROLE ...         more enclaves, e.g. node12:worker
+#   make-study-pki.sh KEYSTORE revoke [NAME ...]     revokes enclave NAME's certificate: a new CRL, copied into
+#                                                    every enclave of KEYSTORE; copy it to every host (each
+#                                                    participant reads it when it starts) and restart them.
+#                                                    Without names: a fresh CRL (one expires with the CA, after
+#                                                    --days + 1; an expired CRL would make Fast DDS refuse everyone)
+#
+# Every certificate's subject is CN=<enclave name>. With --keystore a simulation worker or robot agent
+# takes that CN as its worker id (or CN/suffix), and the optimizer counts a report or announcement only
+# from the certificate that owns its worker id (docs/deploy.md).
 #   options: --days N (validity, default 365), --expired NAME:ROLE (a certificate that expired in 2020: tests)
 #
 # Roles: optimizer writes candidates, study state, trials and replies and reads reports, workers and
@@ -21,10 +32,35 @@
 # Topic names are listed exactly, never as patterns: a '*' would have to match across '/'.
 set -euo pipefail
 
-usage() { echo "usage: make-study-pki.sh KEYSTORE [--days N] [--expired NAME:ROLE] [NAME:ROLE ...]" >&2; exit 2; }
+usage() {
+  echo "usage: make-study-pki.sh KEYSTORE [--days N] [--expired NAME:ROLE] [NAME:ROLE ...]" >&2
+  echo "       make-study-pki.sh KEYSTORE revoke [NAME ...]" >&2
+  exit 2
+}
 [[ $# -ge 1 ]] || usage
 KEYSTORE=$1; shift
 DAYS=365
+if [[ ${1:-} == revoke ]]; then
+  shift  # no names: a fresh CRL (its next-update date moves on) with the revocations so far
+  command -v openssl >/dev/null || { echo "make-study-pki.sh: openssl is not installed" >&2; exit 1; }
+  CA_CNF=$KEYSTORE/private/ca.cnf
+  [[ -f $CA_CNF && -f $KEYSTORE/private/ca.key.pem ]] || { echo "revoke: $KEYSTORE has no study CA (private/ca.cnf)" >&2; exit 2; }
+  # Keystores made before revocation existed lack the CRL settings.
+  grep -q '^crlnumber' "$CA_CNF" || sed -i 's|^serial = .*|&\ncrlnumber = $dir/crlnumber\ndefault_crl_days = 365|' "$CA_CNF"
+  [[ -f $KEYSTORE/private/crlnumber ]] || echo 1000 >"$KEYSTORE/private/crlnumber"
+  for name in "$@"; do
+    cert=$KEYSTORE/enclaves/$name/cert.pem
+    [[ -f $cert ]] || { echo "revoke: no enclave '$name' ($cert is missing)" >&2; exit 2; }
+    openssl ca -config "$CA_CNF" -revoke "$cert" -crl_reason keyCompromise 2>"$KEYSTORE/private/ca.log" ||
+      { grep -q "already revoked" "$KEYSTORE/private/ca.log" || { cat "$KEYSTORE/private/ca.log" >&2; exit 1; }; }
+    echo "revoked enclave $name (serial $(openssl x509 -in "$cert" -noout -serial | cut -d= -f2))"
+  done
+  openssl ca -config "$CA_CNF" -gencrl -out "$KEYSTORE/public/crl.pem" 2>"$KEYSTORE/private/ca.log" ||
+    { cat "$KEYSTORE/private/ca.log" >&2; exit 1; }
+  for dir in "$KEYSTORE"/enclaves/*/; do [[ -f $dir/cert.pem ]] && cp "$KEYSTORE/public/crl.pem" "$dir/crl.pem"; done
+  echo "new CRL: $KEYSTORE/public/crl.pem, copied into every enclave; copy it to every host and restart its processes"
+  exit 0
+fi
 ENCLAVES=()
 EXPIRED=()
 while [[ $# -gt 0 ]]; do
@@ -67,6 +103,8 @@ default_ca = study_ca
 dir = $KEYSTORE/private
 database = \$dir/index.txt
 serial = \$dir/serial
+crlnumber = \$dir/crlnumber
+default_crl_days = $((DAYS + 1))
 new_certs_dir = \$dir
 certificate = $CA_CERT
 private_key = $CA_KEY
@@ -83,6 +121,13 @@ keyUsage = critical,digitalSignature,keyAgreement
 CNF
   ln -sf ca.cert.pem "$KEYSTORE/public/identity_ca.cert.pem"
   ln -sf ca.cert.pem "$KEYSTORE/public/permissions_ca.cert.pem"
+fi
+# The CRL (empty until something is revoked): every participant checks its peers' certificates against it.
+if [[ ! -f $KEYSTORE/public/crl.pem ]]; then
+  grep -q '^crlnumber' "$CA_CNF" || sed -i 's|^serial = .*|&\ncrlnumber = $dir/crlnumber\ndefault_crl_days = 365|' "$CA_CNF"
+  [[ -f $KEYSTORE/private/crlnumber ]] || echo 1000 >"$KEYSTORE/private/crlnumber"
+  openssl ca -config "$CA_CNF" -gencrl -out "$KEYSTORE/public/crl.pem" 2>"$KEYSTORE/private/ca.log" ||
+    { cat "$KEYSTORE/private/ca.log" >&2; exit 1; }
 fi
 
 # The CA signs governance and permissions itself (S/MIME), hence digitalSignature in its key usage.
@@ -146,6 +191,7 @@ make_enclave() {
   cp "$CA_CERT" "$dir/identity_ca.cert.pem"
   cp "$CA_CERT" "$dir/permissions_ca.cert.pem"
   cp "$KEYSTORE/enclaves/governance.p7s" "$dir/governance.p7s"
+  cp "$KEYSTORE/public/crl.pem" "$dir/crl.pem"
   local iso_start iso_end
   iso_start=$(date -u -d "${start:0:8} ${start:8:2}:${start:10:2}:${start:12:2}" +%Y-%m-%dT%H:%M:%S)
   iso_end=$(date -u -d "${end:0:8} ${end:8:2}:${end:10:2}:${end:12:2}" +%Y-%m-%dT%H:%M:%S)

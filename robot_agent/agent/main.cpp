@@ -268,7 +268,9 @@ int main(int argc, char** argv) {
   app.add_option("--can", o.can_uri, "bus URI: socketcan:IFACE, udp:HOST:PORT or virtual:NAME")->required();
   app.add_option("--robot", o.robot_path, "robot YAML (default: configs/robot/morti.yaml)");
   app.add_option("--domain", o.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
-  app.add_option("--id", o.id, "worker id, unique on the domain (default: HOST-robot)");
+  app.add_option("--id", o.id,
+                 "worker id, unique on the domain (default: HOST-robot; with --keystore the certificate's CN, and an id "
+                 "must be CN or CN/SUFFIX)");
   app.add_option("--settings", o.settings_path, "rollout settings YAML (default: configs/rollout.yaml)");
   app.add_flag("--localhost-only", o.localhost_only, "DDS over UDP on 127.0.0.1 only");
   app.add_flag("--no-realtime", o.no_realtime, "do not ask for SCHED_FIFO and locked memory");
@@ -308,10 +310,10 @@ int main(int argc, char** argv) {
       runtime::apply_dds_flags(dds_flags);
       if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
       cpgmatch::dds::validate_domain(o.domain);
-      if (o.id.empty()) {
+      {
         char host[256] = "host";
         gethostname(host, sizeof(host) - 1);
-        o.id = fmt::format("{}-robot", host);
+        o.id = runtime::resolve_worker_id(o.id, fmt::format("{}-robot", host));  // with --keystore: its CN
       }
       if (o.id.size() > 63) throw InputError(fmt::format("--id: at most 63 characters, got {}", o.id.size()));
       if (o.id.find('\'') != std::string::npos) throw InputError("--id must not contain a quote");

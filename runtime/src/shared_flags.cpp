@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/profile.hpp"
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
@@ -50,6 +51,18 @@ void apply_dds_flags(const DdsFlags& flags) {
   if (const char* env = std::getenv("CPGMATCH_KEYSTORE"); security.keystore.empty() && env != nullptr) security.keystore = env;
   security.enclave = flags.enclave.empty() ? flags.default_enclave : flags.enclave;
   dds::select_security(security);
+}
+
+std::string resolve_worker_id(const std::string& id, const std::string& fallback) {
+  const std::string cn = dds::selected_common_name();
+  if (cn.empty()) return id.empty() ? fallback : id;
+  if (id.empty()) return cn;
+  if (!dds::worker_id_belongs_to(id, cn)) {
+    throw InputError(fmt::format("--id '{}': with --keystore the worker id must be the CN of the enclave's certificate "
+                                 "('{}' of enclave '{}') or '{}/<suffix>'; the optimizer would count none of its reports",
+                                 id, cn, dds::selected_enclave(), cn));
+  }
+  return id;
 }
 
 }  // namespace cpgmatch::runtime

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <thread>
 #include <variant>
 
@@ -23,6 +24,7 @@
 
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/participant.hpp"
+#include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
@@ -47,9 +49,18 @@ double monotonic_now_s() {
 
 struct WorkerGone {
   std::uint64_t key;
+  std::optional<std::string> disposed_by;  // with DDS-Security: the disposing participant's CN
 };
 struct ModelResult {};  // a model job finished: wake up and apply it
-using Sample = std::variant<msg::StudyCommand, msg::RolloutReport, msg::WorkerAnnouncement, WorkerGone, ModelResult>;
+// A worker's sample with the identity DDS-Security authenticated for its writer (nothing without security),
+// looked up when it arrives: the coordinator decides whether that identity may speak for its worker_id.
+template <class T>
+struct From {
+  T sample;
+  std::optional<std::string> sender;
+};
+using Sample = std::variant<msg::StudyCommand, From<msg::RolloutReport>, From<msg::WorkerAnnouncement>, WorkerGone,
+                            ModelResult>;
 struct Event {
   Sample sample;
   std::chrono::steady_clock::time_point arrived = std::chrono::steady_clock::now();
@@ -107,6 +118,10 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   options.acquisition_threads = acquisition_threads;
   service::EventQueue<Event> queue;
   options.on_model_result = [&queue] { queue.push(Event{ModelResult{}}); };
+  // With DDS-Security, a report or an announcement counts only from a participant whose certificate owns
+  // its worker_id (docs/deploy.md, "Who may speak for a worker").
+  const bool secure = !dds::selected_enclave().empty();
+  options.require_authenticated_workers = secure;
 
   dds::ParticipantConfig dds_config{domain, "cpgmatch-optimizer", localhost_only};
   // Two optimizers on one domain would both answer commands and publish colliding study ids: say so loudly.
@@ -117,6 +132,8 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
                     domain);
     }
   };
+  dds_config.track_identities = secure;
+  dds_config.on_identity_refused = [](const std::string& why) { spdlog::warn("{}", why); };
   dds::Participant participant(dds_config);
   DdsOutbox dds_outbox(participant);
   DeferredOutbox outbox(dds_outbox);
@@ -126,10 +143,24 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   coordinator.resume_from_store(monotonic_now_s());
 
   dds::Reader<msg::StudyCommand> commands(participant, [&](const msg::StudyCommand& c) { queue.push(Event{c}); });
-  dds::Reader<msg::RolloutReport> reports(participant, [&](const msg::RolloutReport& r) { queue.push(Event{r}); });
+  auto sender = [&](const dds::SampleOrigin& o) { return secure ? participant.identity_of(o.participant) : std::nullopt; };
+  dds::Reader<msg::RolloutReport> reports(
+      participant, dds::Reader<msg::RolloutReport>::WithOrigin{},
+      [&](const msg::RolloutReport& r, const dds::SampleOrigin& o) {
+        queue.push(Event{From<msg::RolloutReport>{r, sender(o)}});
+      });
   dds::Reader<msg::WorkerAnnouncement> workers(
-      participant, [&](const msg::WorkerAnnouncement& w) { queue.push(Event{w}); },
-      [&](const msg::WorkerAnnouncement& key, dds::InstanceGone) { queue.push(Event{WorkerGone{key.worker_key()}}); });
+      participant, dds::Reader<msg::WorkerAnnouncement>::WithOrigin{},
+      [&](const msg::WorkerAnnouncement& w, const dds::SampleOrigin& o) {
+        queue.push(Event{From<msg::WorkerAnnouncement>{w, sender(o)}});
+      },
+      [&](const msg::WorkerAnnouncement& key, dds::InstanceGone gone) {
+        // A dispose is a sample like any other: with DDS-Security only the worker's own identity may send it
+        // (an unknown sender is ""). Lost writers and liveliness are not anyone's claim: no identity.
+        std::optional<std::string> by;
+        if (secure && gone.disposed) by = sender(gone.origin).value_or("");
+        queue.push(Event{WorkerGone{key.worker_key(), by}});
+      });
   spdlog::info("optimizer on domain {} with store {} ({} studies, {} model threads)", domain, store_path,
                coordinator.studies(), model_threads);
 
@@ -171,9 +202,9 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
                 [&](auto& e) {
                   using T = std::decay_t<decltype(e)>;
                   if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
-                  else if constexpr (std::is_same_v<T, msg::RolloutReport>) coordinator.handle_report(e, now);
-                  else if constexpr (std::is_same_v<T, msg::WorkerAnnouncement>) coordinator.handle_worker(e, now);
-                  else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now);
+                  else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) coordinator.handle_report(e.sample, now, e.sender);
+                  else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) coordinator.handle_worker(e.sample, now, e.sender);
+                  else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now, e.disposed_by);
                 },
                 event.sample);
           } catch (const study::StoreWriteError&) {

@@ -24,7 +24,7 @@ timed_study() {
   local ws=() extra=()
   [[ $fake != - ]] && extra=(--fake-rollout-ms "$fake")
   for i in $(seq "$n"); do
-    "$bin/cpgmatch-sim-worker" --domain "$domain" --id "w$i" --slots 1 "${extra[@]}" --localhost-only --log-level warn \
+    "$bin/cpgmatch-sim-worker" --domain "$domain" --id "worker/w$i" --slots 1 "${extra[@]}" --localhost-only --log-level warn \
       "$@" 2>>"$work/workers.log" &
     ws+=($!); pids+=($!)
   done

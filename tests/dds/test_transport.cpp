@@ -9,6 +9,10 @@
 
 #include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/participant.hpp"
+#include "cpgmatch/dds/security.hpp"
+
+#include <openssl/evp.h>
+#include <openssl/x509.h>
 
 namespace cpgmatch::dds {
 namespace {
@@ -119,6 +123,48 @@ TEST(Convert, RejectsBadParametersAndReports) {
   EXPECT_TRUE(check_report(r).has_value());
   r.ok(false);  // a failed rollout's cost is not looked at
   EXPECT_FALSE(check_report(r).has_value());
+}
+
+TEST(Convert, AWorkerIdBelongsToItsCertificatesCommonNameOrItsInstances) {
+  EXPECT_TRUE(worker_id_belongs_to("node12", "node12"));
+  EXPECT_TRUE(worker_id_belongs_to("node12/1", "node12"));
+  EXPECT_TRUE(worker_id_belongs_to("worker/local-7-0", "worker"));
+  EXPECT_FALSE(worker_id_belongs_to("node123", "node12"));  // a prefix is not enough
+  EXPECT_FALSE(worker_id_belongs_to("node12/", "node12"));  // an empty suffix is no instance
+  EXPECT_FALSE(worker_id_belongs_to("node1", "node12"));
+  EXPECT_FALSE(worker_id_belongs_to("other/node12", "node12"));
+  EXPECT_FALSE(worker_id_belongs_to("node12", ""));  // no identity owns nothing
+  EXPECT_FALSE(worker_id_belongs_to("", "node12"));
+}
+
+// The GUID prefix Fast DDS's PKI-DH gives a participant whose certificate subject is `subject` (bit 0 set,
+// bits 1..47 the first 47 bits of SHA-256 of the DER subject; the rest is left arbitrary here).
+void guid_prefix_for(const char* cn, unsigned char (&prefix)[12]) {
+  X509_NAME* name = X509_NAME_new();
+  X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_UTF8, reinterpret_cast<const unsigned char*>(cn), -1, -1, 0);
+  unsigned char md[32];
+  unsigned int length = 0;
+  X509_NAME_digest(name, EVP_sha256(), md, &length);
+  X509_NAME_free(name);
+  for (unsigned char& b : prefix) b = 0x5a;
+  prefix[0] = static_cast<unsigned char>(0x80 | (md[0] >> 1));
+  for (int i = 1; i < 6; ++i) prefix[i] = static_cast<unsigned char>((md[i - 1] << 7) | (md[i] >> 1));
+}
+
+TEST(Security, AnAnnouncedSubjectNamesTheParticipantOnlyIfItsGuidWasDerivedFromIt) {
+  unsigned char worker[12], mallory[12];
+  guid_prefix_for("worker", worker);
+  guid_prefix_for("mallory", mallory);
+  std::string why;
+  EXPECT_EQ(authenticated_common_name("/CN=worker", worker, why), std::optional<std::string>("worker")) << why;
+  // mallory's participant announcing worker's subject in its IdentityToken: refused, with the reason.
+  EXPECT_FALSE(authenticated_common_name("/CN=worker", mallory, why).has_value());
+  EXPECT_NE(why.find("not derived from the subject '/CN=worker'"), std::string::npos) << why;
+  unsigned char no_security[12] = {0x01, 0x0f, 0x12, 0x34};  // an ordinary (unauthenticated) GUID prefix
+  EXPECT_FALSE(authenticated_common_name("/CN=worker", no_security, why).has_value());
+  for (const char* bad : {"", "CN=worker", "/CN=", "/O=cpgmatch", "/noequals"}) {
+    EXPECT_FALSE(authenticated_common_name(bad, worker, why).has_value()) << bad;
+  }
 }
 
 }  // namespace

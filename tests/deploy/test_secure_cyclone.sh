@@ -32,7 +32,7 @@ study() {
   local tag=$1; shift
   in_ns "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --store "$WORK/$tag.db" "$@" >>"$WORK/optimizer-$tag.log" 2>&1 &
   PIDS+=($!)
-  in_ns "$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" --id "w-$tag" --slots 2 --fake-rollout-ms 10 "$@" \
+  in_ns "$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" --id "worker/w-$tag" --slots 2 --fake-rollout-ms 10 "$@" \
     >>"$WORK/worker-$tag.log" 2>&1 &
   PIDS+=($!)
   in_ns "$BIN/cpgmatch" study submit --config "$WORK/$tag.yaml" --wait --quiet --domain "$DOMAIN" --timeout 20 "$@" \

@@ -36,7 +36,7 @@ run_study() {  # run_study TAG [security flags]: sets RUN_S (wall time of submit
   local tag=$1; shift
   "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --store "$WORK/$tag.db" --localhost-only "$@" >>"$WORK/optimizer-$tag.log" 2>&1 &
   local opt=$!; PIDS+=("$opt")
-  "$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" --id "w-$tag" --slots 2 --localhost-only "$@" >>"$WORK/worker-$tag.log" 2>&1 &
+  "$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" --id "worker/w-$tag" --slots 2 --localhost-only "$@" >>"$WORK/worker-$tag.log" 2>&1 &
   local w=$!; PIDS+=("$w")
   local t0; t0=$(date +%s.%N)
   "$BIN/cpgmatch" study submit --config "$WORK/s.yaml" --wait --quiet --json --domain "$DOMAIN" --localhost-only \
@@ -63,7 +63,7 @@ expect_exit 1 "cpgmatch/replies" "$BIN/cpgmatch" study submit --config "$WORK/s.
 expect_exit 1 "cannot create a writer on cpgmatch/candidates" "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --localhost-only \
   --store "$WORK/impostor.db" --keystore "$KS" --enclave worker
 # An injector without a certificate never matches the secure optimizer: its forged reports go nowhere.
-expect_exit 1 "nobody to talk to" "$INJECT" "$DOMAIN" 1 w-secure
+expect_exit 1 "nobody to talk to" "$INJECT" "$DOMAIN" 1 worker/w-secure
 [[ $(sql "$WORK/secure.db" "select count(*) from studies") == 1 ]] || fail "a study was created by someone"
 grep -q "injector\|impostor" "$WORK/optimizer-secure.log" && fail "the secure optimizer heard the injector"
 kill -0 "$SECURE_OPT" || fail "the secure optimizer died"

@@ -114,6 +114,33 @@ TEST(Physics, APassiveHipResistsLikeABackdrivenGearedMotor) {
   EXPECT_LT(with_gearbox, 0.8 * without) << with_gearbox << " vs " << without;
 }
 
+// Flexion (relative to standing) the FL knee settles at when commanded to `command_rad` for 1 s.
+double knee_flexion_after(const MortiModel& model, double command_rad) {
+  OdePlant plant(model, TerrainSpec::parse("flat"), 0);
+  PerLeg<JointCommand> cmd{};
+  plant.command(cmd);
+  plant.advance(0.3);
+  cmd[kFrontLeft].knee_flexion_rad = command_rad;
+  plant.command(cmd);
+  plant.advance(1.0);
+  return plant.state().legs[kFrontLeft].knee_flexion_rad;
+}
+
+TEST(Physics, KneeStopsHoldTheFlexionInsideItsMechanicalRange) {
+  // Stops moved to 0.3 rad above and 0.1 rad below the standing flexion, and the knee commanded well past
+  // each: the joint must settle at the stop (the motor pushes its stall torque through the spring into it).
+  MortiModel model = load_morti_model(default_model_path());
+  const double stand = model.knee_stand_flexion_rad;
+  const double free_flex = knee_flexion_after(model, 0.6);
+  ASSERT_GT(free_flex, 0.45) << "without a stop in the way the knee follows the command";
+  model.knee_max_flexion_rad = stand + 0.3;
+  model.knee_min_flexion_rad = stand - 0.1;
+  const double flexed = knee_flexion_after(model, 0.6);
+  EXPECT_NEAR(flexed, 0.3, 0.03);
+  const double extended = knee_flexion_after(model, -0.5);
+  EXPECT_NEAR(extended, -0.1, 0.03);
+}
+
 // Feedback activity of one mechanism, summed over legs, in the second after `from_s` (one step cycle:
 // every leg meets the moved ground once).
 int activity_after(const SimRolloutJob& job, double from_s, bool FeedbackActivity::*mechanism,

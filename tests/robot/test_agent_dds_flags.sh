@@ -88,7 +88,7 @@ kill -TERM "$OPT_PID" "$DS_PID"; wait "$OPT_PID" "$DS_PID" || true
   >>"$WORK/optimizer-secure.log" 2>&1 &
 OPT_PID=$!; PIDS+=("$OPT_PID")
 # A viewer identity may not write reports: the agent cannot join as one (exit 1, naming the topic).
-expect_exit 1 "cannot create a writer on cpgmatch/reports" "$AGENT" --domain "$DOMAIN" --localhost-only --id viewer-agent \
+expect_exit 1 "cannot create a writer on cpgmatch/reports" "$AGENT" --domain "$DOMAIN" --localhost-only --id viewer \
   --can "udp:127.0.0.1:$PORT" --robot "$WORK/robot.yaml" --no-realtime --keystore "$KS" --enclave viewer
 # The keystore from the environment, the enclave from the flag.
 CPGMATCH_KEYSTORE=$KS start_agent morti --localhost-only --enclave morti

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <atomic>
 #include <future>
+#include <optional>
 #include <set>
 #include <vector>
 
@@ -54,6 +55,7 @@ class CoordinatorTest : public ::testing::Test {
     options.wall_clock_s = [this] { return wall_; };
     options.model_threads = model_threads_;
     options.model_job_hook = model_job_hook_;
+    options.require_authenticated_workers = require_identity_;
     coordinator_ = std::make_unique<Coordinator>(*store_, defer_ ? static_cast<Outbox&>(*deferred_) : out_, options,
                                                  [](const std::string&) {},
                                                  [this](const std::string& m) { warnings_.push_back(m); });
@@ -64,11 +66,13 @@ class CoordinatorTest : public ::testing::Test {
     c.client_id("test");
     c.kind(msg::COMMAND_SUBMIT);
     c.study_yaml("name: t\nbudget: " + std::to_string(budget) + "\ninitial_points: " + std::to_string(initial) +
-                 "\nrollout: {entrain_s: 1, eval_s: 1}\n");
+                 "\nrollout: {entrain_s: 1, eval_s: 1}\n" + extra_study_yaml_);
     coordinator_->handle_command(c, now_);
     EXPECT_TRUE(out_.replies.back().ok()) << out_.replies.back().message().to_string();
     return static_cast<int>(out_.replies.back().study_id());
   }
+  std::string extra_study_yaml_;  // appended to submit()'s study file
+  int fall_every_ = 0;            // one_slot_study: every n-th trial falls (0: none)
   std::vector<std::map<std::string, double>> one_slot_study(int answers, int restart_after);
  public:
   std::map<int, std::map<std::string, double>> run_two_worker_study(int lockstep, bool newest_first,
@@ -132,13 +136,21 @@ class CoordinatorTest : public ::testing::Test {
       coordinator_->tick(now_s);
     }
   }
-  void worker(const std::string& id, int slots) {
+  void worker(const std::string& id, int slots, const std::optional<std::string>& identity = std::nullopt) {
     msg::WorkerAnnouncement w;
     w.worker_id(id);
     w.worker_key(dds::worker_key(id));
     w.slots(static_cast<std::uint32_t>(slots));
     w.accepting(true);
-    coordinator_->handle_worker(w, now_);
+    coordinator_->handle_worker(w, now_, identity);
+  }
+  // Candidates sent so far to `worker_id`.
+  std::vector<msg::Candidate> sent_to(const std::string& worker_id) const {
+    std::vector<msg::Candidate> to;
+    for (const auto& c : out_.candidates) {
+      if (c.worker_id().to_string() == worker_id) to.push_back(c);
+    }
+    return to;
   }
   msg::RolloutReport report_for(const msg::Candidate& c, double cost) {
     msg::RolloutReport r;
@@ -169,6 +181,7 @@ class CoordinatorTest : public ::testing::Test {
   double now_ = 1000.0;       // monotonic time handed to the coordinator
   double wall_ = 1.7e9;       // the wall clock it writes to the store
   int model_threads_ = 0;     // 0: model jobs inline
+  bool require_identity_ = false;  // as with DDS-Security on
   std::function<void(int)> model_job_hook_;
 };
 
@@ -319,6 +332,139 @@ TEST_F(CoordinatorTest, AReportCountsOnlyFromTheWorkerItsCandidateWasAssignedTo)
   EXPECT_EQ(out_.states.back().completed(), 1u);
 }
 
+TEST_F(CoordinatorTest, WithSecurityAReportCountsOnlyWhenTheSendersCertificateOwnsItsWorkerId) {
+  require_identity_ = true;
+  open();
+  submit(4, 4);
+  // Announcements: only from a sender whose certificate owns the id.
+  worker("a", 1);                 // no authenticated identity at all
+  worker("a", 1, "mallory");      // another identity claiming a
+  worker("node12/2", 1, "node");  // CN "node" does not own "node12/...": the CN is not a mere prefix
+  EXPECT_EQ(coordinator_->live_workers(), 0);
+  EXPECT_EQ(coordinator_->rejected_samples(), 3u);
+  ASSERT_FALSE(warnings_.empty());
+  EXPECT_NE(warnings_.back().find("CN=node, which does not own worker id 'node12/2'"), std::string::npos)
+      << warnings_.back();
+  worker("a", 1, "a");
+  worker("node12/2", 1, "node12");  // an instance of identity node12
+  EXPECT_EQ(coordinator_->live_workers(), 2);
+  coordinator_->tick(now_);
+  ASSERT_EQ(sent_to("a").size(), 1u);
+  ASSERT_EQ(sent_to("node12/2").size(), 1u);
+  const msg::Candidate to_a = sent_to("a")[0];
+  // A participant with a valid certificate for another identity writes a's report: never counted, whatever
+  // its cost; nor one whose sender is unknown.
+  const msg::RolloutReport forged = report_for(to_a, 1e-6);
+  coordinator_->handle_report(forged, now_, std::string("mallory"));
+  coordinator_->handle_report(forged, now_, std::string("node12"));
+  coordinator_->handle_report(forged, now_, std::nullopt);
+  coordinator_->handle_report(forged, now_, std::string(""));
+  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(coordinator_->rejected_samples(), 7u);
+  EXPECT_NE(warnings_.back().find("certificate is not known"), std::string::npos) << warnings_.back();
+  // The owners' own reports count, once each.
+  coordinator_->handle_report(report_for(to_a, 2.0), now_, std::string("a"));
+  coordinator_->handle_report(report_for(sent_to("node12/2")[0], 3.0), now_, std::string("node12"));
+  ASSERT_EQ(out_.trials.size(), 2u);
+  EXPECT_DOUBLE_EQ(out_.trials[0].report().cost(), 2.0);
+  coordinator_->tick(now_ += 1);
+  EXPECT_EQ(out_.states.back().completed(), 2u);
+  EXPECT_EQ(out_.states.back().best_cost(), 2.0);
+}
+
+TEST_F(CoordinatorTest, WithSecurityOnlyTheWorkersOwnIdentityMayDisposeItsAnnouncement) {
+  require_identity_ = true;
+  open();
+  submit(4, 4);
+  worker("a", 1, "a");
+  coordinator_->tick(now_);
+  ASSERT_EQ(sent_to("a").size(), 1u);
+  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string("mallory"));
+  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string(""));
+  EXPECT_EQ(coordinator_->live_workers(), 1);
+  EXPECT_EQ(coordinator_->rejected_samples(), 2u);
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(out_.candidates.size(), 1u);  // nothing re-issued
+  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string("a"));  // its own dispose
+  EXPECT_EQ(coordinator_->live_workers(), 0);
+  worker("b", 1, "b");
+  coordinator_->handle_worker_gone(dds::worker_key("b"), now_, std::nullopt);  // no writer left: no claim
+  EXPECT_EQ(coordinator_->live_workers(), 0);
+}
+
+TEST_F(CoordinatorTest, WithoutSecurityTheSendersIdentityIsNotChecked) {
+  submit(2, 2);
+  worker("a", 1, "someone-else");  // there is no identity without security: taken as written
+  coordinator_->tick(now_);
+  ASSERT_EQ(sent_to("a").size(), 1u);
+  coordinator_->handle_report(report_for(sent_to("a")[0], 2.0), now_, std::nullopt);
+  EXPECT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(coordinator_->rejected_samples(), 0u);
+}
+
+TEST_F(CoordinatorTest, AWorkerWhoseLeaseExpiredGetsOneCandidateAtATimeUntilItReports) {
+  submit(40, 40);
+  worker("greedy", 8);
+  coordinator_->tick(now_);
+  ASSERT_EQ(sent_to("greedy").size(), 8u);
+  // It keeps announcing 8 slots but never answers: the leases (60 s + 3 x 2 s) run out.
+  for (int i = 0; i < 67; ++i) {
+    worker("greedy", 8);
+    coordinator_->tick(now_ += 1.0);
+  }
+  EXPECT_TRUE(coordinator_->on_probation("greedy"));
+  // Its 8 candidates were taken back; it got one of them again, not all 8.
+  ASSERT_EQ(sent_to("greedy").size(), 9u);
+  EXPECT_EQ(out_.candidates.back().attempt(), 1u);
+  // Leaving and rejoining the domain does not clear it.
+  coordinator_->handle_worker_gone(dds::worker_key("greedy"), now_);
+  worker("greedy", 8);
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(sent_to("greedy").size(), 10u);  // the one it held went back and came again: still one at a time
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(sent_to("greedy").size(), 10u);
+  // Another worker gets the rest of the work meanwhile.
+  worker("honest", 4);
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(sent_to("honest").size(), 4u);
+  // Its report (for the attempt it holds) ends the probation: all 8 slots again.
+  coordinator_->handle_report(report_for(out_.candidates[out_.candidates.size() - 5], 1.0), now_);
+  ASSERT_EQ(out_.trials.size(), 1u);
+  EXPECT_FALSE(coordinator_->on_probation("greedy"));
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(sent_to("greedy").size(), 18u);
+}
+
+TEST_F(CoordinatorTest, AWorkerOnProbationGetsWorkOnlyWhenNoOtherWorkerHasAFreeSlot) {
+  submit(3, 3);
+  worker("greedy", 3);
+  coordinator_->tick(now_);
+  ASSERT_EQ(sent_to("greedy").size(), 3u);
+  for (int i = 0; i < 67; ++i) {  // its three leases expire; it holds one of them again
+    worker("greedy", 3);
+    coordinator_->tick(now_ += 1.0);
+  }
+  ASSERT_TRUE(coordinator_->on_probation("greedy"));
+  ASSERT_EQ(sent_to("greedy").size(), 4u);
+  // An honest worker with 2 slots joins: it gets the two waiting re-issues. When greedy's lease expires
+  // again, that trial goes to the honest worker (once it has a free slot), not back to greedy.
+  worker("honest", 2);
+  coordinator_->tick(now_ += 0.1);
+  ASSERT_EQ(sent_to("honest").size(), 2u);
+  for (const auto& c : sent_to("honest")) coordinator_->handle_report(report_for(c, 1.0), now_);
+  for (int i = 0; i < 67; ++i) {
+    worker("greedy", 3);
+    worker("honest", 2);
+    coordinator_->tick(now_ += 1.0);
+  }
+  ASSERT_EQ(sent_to("honest").size(), 3u);
+  EXPECT_EQ(sent_to("honest").back().trial_id(), sent_to("greedy").back().trial_id());
+  EXPECT_EQ(sent_to("greedy").size(), 4u);
+  coordinator_->handle_report(report_for(sent_to("honest").back(), 1.0), now_);
+  coordinator_->tick(now_ += 1.0);
+  EXPECT_EQ(out_.states.back().state(), msg::STUDY_DONE);
+}
+
 TEST_F(CoordinatorTest, AfterARestartTheStoredAssignmentStillDecidesWhoMayReport) {
   submit(4, 4);
   worker("a", 1);
@@ -427,7 +573,12 @@ std::vector<std::map<std::string, double>> CoordinatorTest::one_slot_study(int a
     }
     const msg::Candidate c = out_.candidates.back();
     if (k >= restart_after) issued.push_back(dds::from_wire(c.parameters()));
-    coordinator_->handle_report(report_for(c, 1.0 + std::sin(0.7 * c.trial_id())), now_ += 0.01);
+    msg::RolloutReport r = report_for(c, 1.0 + std::sin(0.7 * c.trial_id()) + 0.1);
+    if (fall_every_ > 0 && c.trial_id() % fall_every_ == 0) {
+      r.fell(true);
+      r.cost(15.0);
+    }
+    coordinator_->handle_report(r, now_ += 0.01);
     settle(now_ += 0.01);
   }
   issued.push_back(dds::from_wire(out_.candidates.back().parameters()));
@@ -440,6 +591,19 @@ TEST_F(CoordinatorTest, ARestartProposesExactlyWhatTheUninterruptedRunWould) {
   // from the saved model state and holds each stored observation exactly once.
   const auto uninterrupted = one_slot_study(42, 0);
   const auto restarted = one_slot_study(42, 36);
+  ASSERT_EQ(restarted.size(), 7u);
+  for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
+}
+
+TEST_F(CoordinatorTest, AFallModelStudyLearnsFromReportedFallsAndRestartsExactly) {
+  // Every 4th trial falls. With fall_model the falls reach the optimizer (its proposals differ from the
+  // same study without the model), from live reports and from the store after a restart alike.
+  fall_every_ = 4;
+  const auto without = one_slot_study(42, 0);
+  extra_study_yaml_ = "fall_model: true\n";
+  const auto uninterrupted = one_slot_study(42, 0);
+  const auto restarted = one_slot_study(42, 36);
+  EXPECT_NE(std::vector(uninterrupted.begin() + 31, uninterrupted.end()), std::vector(without.begin() + 31, without.end()));
   ASSERT_EQ(restarted.size(), 7u);
   for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
 }

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
 #include <thread>
@@ -16,6 +17,7 @@
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/command_objective.hpp"
 #include "cpgmatch/dds/domain.hpp"
+#include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "service_flags.hpp"
 #include "study_client.hpp"
@@ -149,10 +151,21 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
       std::vector<std::string>{(bin / "cpgmatch-optimizer").string(), "--domain", d, "--store", store,
                                "--localhost-only", "--log-level", "warn"},
       (dir / "optimizer.log").string()));
+  // Under $CPGMATCH_KEYSTORE the workers are the keystore's "worker" identity, and a worker id must be its
+  // certificate's CN or CN/suffix (dds::worker_id_belongs_to): CN/local-PID-i.
+  std::string id_prefix;
+  if (const char* ks = std::getenv("CPGMATCH_KEYSTORE"); ks != nullptr && *ks != '\0') {
+    try {
+      id_prefix = dds::certificate_common_name(fs::path(ks) / "enclaves" / "worker" / "cert.pem") + "/";
+    } catch (const std::exception&) {
+      // The workers stop with the keystore's own message (exit 2) when they start.
+    }
+  }
   for (int i = 0; i < workers; ++i) {
     children.push_back(std::make_unique<ChildProcess>(
         std::vector<std::string>{(bin / "cpgmatch-sim-worker").string(), "--domain", d, "--slots", "1", "--id",
-                                 fmt::format("local-{}-{}", getpid(), i), "--localhost-only", "--log-level", "warn"},
+                                 fmt::format("{}local-{}-{}", id_prefix, getpid(), i), "--localhost-only", "--log-level",
+                                 "warn"},
         (dir / fmt::format("worker-{}.log", i)).string()));
   }
   auto stop_all = [&] {

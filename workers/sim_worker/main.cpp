@@ -125,7 +125,9 @@ int main(int argc, char** argv) {
   std::string log_level = "info";
   app.add_option("--domain", o.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
   app.add_option("--slots", o.slots, "concurrent rollouts (default: number of cores)");
-  app.add_option("--id", o.id, "worker id, unique on the domain (default: HOST-PID)");
+  app.add_option("--id", o.id,
+                 "worker id, unique on the domain (default: HOST-PID; with --keystore the certificate's CN, and an id "
+                 "must be CN or CN/SUFFIX)");
   app.add_option("--fake-rollout-ms", o.fake_rollout_ms,
                  "benchmark mode: replace each rollout by a fixed delay (ms) and a synthetic cost");
   app.add_option("--heartbeat", o.heartbeat_s, "seconds between announcements")->capture_default_str();
@@ -153,10 +155,10 @@ int main(int argc, char** argv) {
     if (o.slots == -1) o.slots = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     if (o.slots < 1 || o.slots > 4096) throw InputError(fmt::format("--slots must be in 1..4096, got {}", o.slots));
     if (o.heartbeat_s <= 0.0 || o.heartbeat_s > 10.0) throw InputError("--heartbeat must be in (0, 10] s");
-    if (o.id.empty()) {
+    {
       char host[256] = "host";
       gethostname(host, sizeof(host) - 1);
-      o.id = fmt::format("{}-{}", host, getpid());
+      o.id = runtime::resolve_worker_id(o.id, fmt::format("{}-{}", host, getpid()));  // with --keystore: its CN
     }
     if (o.id.size() > 63) throw InputError(fmt::format("--id: at most 63 characters, got {}", o.id.size()));
     if (o.id.find('\'') != std::string::npos) throw InputError("--id must not contain a quote");

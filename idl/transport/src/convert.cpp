@@ -88,6 +88,13 @@ std::uint64_t worker_key(const std::string& worker_id) {
   return h;
 }
 
+bool worker_id_belongs_to(const std::string& worker_id, const std::string& common_name) {
+  if (common_name.empty()) return false;
+  if (worker_id == common_name) return true;
+  return worker_id.size() > common_name.size() + 1 && worker_id.compare(0, common_name.size(), common_name) == 0 &&
+         worker_id[common_name.size()] == '/';
+}
+
 std::string to_string(msg::StudyStatus s) {
   switch (s) {
     case msg::STUDY_RUNNING: return "running";

@@ -81,9 +81,11 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
     qos.wire_protocol().builtin.initialPeersList.push_back(peer);
   }
   peer_listener_.on_peer = config.on_peer_discovered;
+  peer_listener_.track_identities = config.track_identities;
+  peer_listener_.on_identity_refused = config.on_identity_refused;
   // StatusMask::none(): the listener takes no data or QoS callbacks from the entities; discovery
   // callbacks are delivered regardless of the mask.
-  participant_ = config.on_peer_discovered
+  participant_ = config.on_peer_discovered || config.track_identities
                      ? factory->create_participant(config.domain, qos, &peer_listener_, fdds::StatusMask::none())
                      : factory->create_participant(config.domain, qos);
   if (participant_ == nullptr) {
@@ -96,9 +98,44 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
 
 void Participant::PeerListener::on_participant_discovery(eprosima::fastdds::dds::DomainParticipant*,
                                                          eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) {
-  if (on_peer && info.status == eprosima::fastrtps::rtps::ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) {
+  using Info = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
+  const auto& prefix = info.info.m_guid.guidPrefix;
+  if (track_identities) {
+    if (info.status == Info::DISCOVERED_PARTICIPANT || info.status == Info::CHANGED_QOS_PARTICIPANT) {
+      // With DDS-Security, Fast DDS only matches endpoints of participants it authenticated; the
+      // announced subject is checked against the GUID it authenticated (authenticated_common_name).
+      std::string subject, why;
+      for (const auto& property : info.info.identity_token_.properties()) {
+        if (property.name() == "dds.cert.sn") subject = property.value();
+      }
+      const std::optional<std::string> cn = authenticated_common_name(subject, prefix.value, why);
+      std::lock_guard<std::mutex> lock(mutex);
+      if (cn) {
+        identities[prefix] = *cn;
+      } else {
+        identities.erase(prefix);
+        // No IdentityToken at all: an unauthenticated participant, which Fast DDS itself never matches
+        // (governance: allow_unauthenticated_participants false); nothing to say about it.
+        if (on_identity_refused && !subject.empty()) {
+          on_identity_refused(fmt::format("participant '{}': no authenticated identity: {}",
+                                          info.info.m_participantName.to_string(), why));
+        }
+      }
+    } else if (info.status == Info::REMOVED_PARTICIPANT || info.status == Info::DROPPED_PARTICIPANT) {
+      std::lock_guard<std::mutex> lock(mutex);
+      identities.erase(prefix);
+    }
+  }
+  if (on_peer && info.status == Info::DISCOVERED_PARTICIPANT) {
     on_peer(info.info.m_participantName.to_string());
   }
+}
+
+std::optional<std::string> Participant::identity_of(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix) const {
+  std::lock_guard<std::mutex> lock(peer_listener_.mutex);
+  const auto it = peer_listener_.identities.find(prefix);
+  if (it == peer_listener_.identities.end()) return std::nullopt;
+  return it->second;
 }
 
 Participant::~Participant() {

@@ -1,11 +1,14 @@
 #include "cpgmatch/dds/security.hpp"
 
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <memory>
 
 #include <fmt/format.h>
+#include <openssl/evp.h>
 #include <openssl/pem.h>
+#include <openssl/sha.h>
 #include <openssl/x509.h>
 
 #include "cpgmatch/errors.hpp"
@@ -17,6 +20,7 @@ namespace fs = std::filesystem;
 namespace {
 
 SecuritySelection g_selected;
+std::string g_selected_cn;
 
 constexpr const char* kEnclaveFiles[] = {"identity_ca.cert.pem", "cert.pem", "key.pem",
                                          "permissions_ca.cert.pem", "governance.p7s", "permissions.p7s"};
@@ -33,6 +37,31 @@ void check_certificate_dates(const fs::path& file) {
   }
   if (X509_cmp_current_time(X509_get0_notBefore(cert.get())) >= 0) {
     throw InputError(fmt::format("--keystore: the certificate {} is not valid yet", file.string()));
+  }
+}
+
+// The enclave's CRL (crl.pem, optional: keystores made before revocation existed have none). Fast DDS
+// checks every peer's certificate against it (PKI-DH identity_crl); an expired CRL would make it refuse
+// every peer, and a CRL that revokes our own certificate would make the participant fail without a word.
+// Both stop the program here instead, naming the file.
+void check_crl(const fs::path& crl_file, const fs::path& cert_file) {
+  std::unique_ptr<FILE, int (*)(FILE*)> in(std::fopen(crl_file.c_str(), "r"), &std::fclose);
+  if (!in) throw InputError(fmt::format("--keystore: cannot read {}", crl_file.string()));
+  std::unique_ptr<X509_CRL, void (*)(X509_CRL*)> crl(PEM_read_X509_CRL(in.get(), nullptr, nullptr, nullptr),
+                                                     &X509_CRL_free);
+  if (!crl) throw InputError(fmt::format("--keystore: {} is not a PEM certificate revocation list", crl_file.string()));
+  if (const ASN1_TIME* next = X509_CRL_get0_nextUpdate(crl.get()); next != nullptr && X509_cmp_current_time(next) <= 0) {
+    throw InputError(fmt::format("--keystore: the revocation list {} has expired (make a fresh one: make-study-pki.sh "
+                                 "KEYSTORE revoke)",
+                                 crl_file.string()));
+  }
+  std::unique_ptr<FILE, int (*)(FILE*)> cert_in(std::fopen(cert_file.c_str(), "r"), &std::fclose);
+  if (!cert_in) throw InputError(fmt::format("--keystore: cannot read {}", cert_file.string()));
+  std::unique_ptr<X509, void (*)(X509*)> cert(PEM_read_X509(cert_in.get(), nullptr, nullptr, nullptr), &X509_free);
+  X509_REVOKED* revoked = nullptr;
+  if (cert && X509_CRL_get0_by_cert(crl.get(), &revoked, cert.get()) == 1) {
+    throw InputError(fmt::format("--keystore: the certificate {} has been revoked ({})", cert_file.string(),
+                                 crl_file.string()));
   }
 }
 
@@ -60,7 +89,71 @@ void select_security(const SecuritySelection& selection) {
   }
   check_certificate_dates(dir / "identity_ca.cert.pem");
   check_certificate_dates(dir / "cert.pem");
+  if (std::ifstream(dir / "crl.pem")) check_crl(dir / "crl.pem", dir / "cert.pem");
+  g_selected_cn = certificate_common_name(dir / "cert.pem");
   g_selected = selection;
+}
+
+std::string selected_common_name() { return g_selected.keystore.empty() ? std::string() : g_selected_cn; }
+
+std::string certificate_common_name(const fs::path& file) {
+  std::unique_ptr<FILE, int (*)(FILE*)> in(std::fopen(file.c_str(), "r"), &std::fclose);
+  if (!in) throw InputError(fmt::format("--keystore: cannot read {}", file.string()));
+  std::unique_ptr<X509, void (*)(X509*)> cert(PEM_read_X509(in.get(), nullptr, nullptr, nullptr), &X509_free);
+  if (!cert) throw InputError(fmt::format("--keystore: {} is not a PEM certificate", file.string()));
+  char cn[256] = "";
+  const int n = X509_NAME_get_text_by_NID(X509_get_subject_name(cert.get()), NID_commonName, cn, sizeof(cn));
+  if (n <= 0) throw InputError(fmt::format("--keystore: the certificate {} has no common name (CN)", file.string()));
+  return std::string(cn, static_cast<std::size_t>(n));
+}
+
+std::optional<std::string> authenticated_common_name(const std::string& token_subject,
+                                                     const unsigned char (&guid_prefix)[12], std::string& why) {
+  // "/CN=worker" (X509_NAME_oneline): '/'-separated FIELD=VALUE entries. Our enclave names never hold a
+  // '/' (make-study-pki.sh allows A-Z a-z 0-9 . _ -); a subject that does not parse is not accepted.
+  if (token_subject.empty() || token_subject[0] != '/') {
+    why = fmt::format("its IdentityToken has no subject name (dds.cert.sn '{}')", token_subject);
+    return std::nullopt;
+  }
+  std::unique_ptr<X509_NAME, void (*)(X509_NAME*)> name(X509_NAME_new(), &X509_NAME_free);
+  std::string cn;
+  std::size_t pos = 1;
+  while (pos <= token_subject.size()) {
+    const std::size_t end = std::min(token_subject.find('/', pos), token_subject.size());
+    const std::string entry = token_subject.substr(pos, end - pos);
+    const std::size_t eq = entry.find('=');
+    if (eq == std::string::npos || eq == 0 ||
+        X509_NAME_add_entry_by_txt(name.get(), entry.substr(0, eq).c_str(), MBSTRING_UTF8,
+                                   reinterpret_cast<const unsigned char*>(entry.c_str() + eq + 1), -1, -1, 0) != 1) {
+      why = fmt::format("its subject name '{}' does not parse", token_subject);
+      return std::nullopt;
+    }
+    if (entry.compare(0, eq, "CN") == 0) cn = entry.substr(eq + 1);
+    pos = end + 1;
+  }
+  if (cn.empty()) {
+    why = fmt::format("its subject name '{}' has no CN", token_subject);
+    return std::nullopt;
+  }
+  // Fast DDS (PKIDH adjust_participant_key): prefix bit 0 set, bits 1..47 = the first 47 bits of
+  // SHA-256(DER subject name).
+  unsigned char md[SHA256_DIGEST_LENGTH];
+  unsigned int length = 0;
+  if (X509_NAME_digest(name.get(), EVP_sha256(), md, &length) != 1 || length != SHA256_DIGEST_LENGTH) {
+    why = "cannot hash its subject name";
+    return std::nullopt;
+  }
+  md[5] &= 0xFE;
+  const unsigned char* g = guid_prefix;
+  const unsigned char bits[6] = {
+      static_cast<unsigned char>((g[0] << 1) | (g[1] >> 7)), static_cast<unsigned char>((g[1] << 1) | (g[2] >> 7)),
+      static_cast<unsigned char>((g[2] << 1) | (g[3] >> 7)), static_cast<unsigned char>((g[3] << 1) | (g[4] >> 7)),
+      static_cast<unsigned char>((g[4] << 1) | (g[5] >> 7)), static_cast<unsigned char>(g[5] << 1)};
+  if ((g[0] & 0x80) == 0 || std::memcmp(md, bits, sizeof(bits)) != 0) {
+    why = fmt::format("its GUID was not derived from the subject '{}' its IdentityToken announces", token_subject);
+    return std::nullopt;
+  }
+  return cn;
 }
 
 std::string selected_enclave() { return g_selected.keystore.empty() ? std::string() : g_selected.enclave; }
@@ -74,6 +167,9 @@ void apply_security(eprosima::fastdds::dds::DomainParticipantQos& qos) {
   set("dds.sec.auth.builtin.PKI-DH.identity_ca", file_uri(dir / "identity_ca.cert.pem"));
   set("dds.sec.auth.builtin.PKI-DH.identity_certificate", file_uri(dir / "cert.pem"));
   set("dds.sec.auth.builtin.PKI-DH.private_key", file_uri(dir / "key.pem"));
+  // Fast DDS 2.9 PKI-DH reads a CRL from this property (PKIDH.cpp, FileProvider::load_crl) and then verifies
+  // every certificate with X509_V_FLAG_CRL_CHECK: a revoked peer fails the handshake.
+  if (std::ifstream(dir / "crl.pem")) set("dds.sec.auth.builtin.PKI-DH.identity_crl", file_uri(dir / "crl.pem"));
   set("dds.sec.access.plugin", "builtin.Access-Permissions");
   set("dds.sec.access.builtin.Access-Permissions.permissions_ca", file_uri(dir / "permissions_ca.cert.pem"));
   set("dds.sec.access.builtin.Access-Permissions.governance", file_uri(dir / "governance.p7s"));

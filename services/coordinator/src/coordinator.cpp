@@ -34,11 +34,16 @@ msg::StudyStatus status_of(const std::string& state) {
 }
 
 nlohmann::json model_state_json(const bo::ModelState& m) {
-  return {{"observations", m.observations},
-          {"fits", m.fits},
-          {"have_hyperparameters", m.have_hyperparameters},
-          {"hyperparameters", std::vector<double>(m.hyperparameters.data(), m.hyperparameters.data() + m.hyperparameters.size())},
-          {"hedge_gains", {m.hedge_gains[0], m.hedge_gains[1], m.hedge_gains[2]}}};
+  nlohmann::json j = {{"observations", m.observations},
+                      {"fits", m.fits},
+                      {"have_hyperparameters", m.have_hyperparameters},
+                      {"hyperparameters", std::vector<double>(m.hyperparameters.data(), m.hyperparameters.data() + m.hyperparameters.size())},
+                      {"hedge_gains", {m.hedge_gains[0], m.hedge_gains[1], m.hedge_gains[2]}}};
+  if (m.have_fall_hyperparameters) {
+    j["fall_hyperparameters"] = std::vector<double>(m.fall_hyperparameters.data(),
+                                                    m.fall_hyperparameters.data() + m.fall_hyperparameters.size());
+  }
+  return j;
 }
 
 bo::ModelState model_state_from_json(const nlohmann::json& j) {
@@ -51,7 +56,21 @@ bo::ModelState model_state_from_json(const nlohmann::json& j) {
   const auto gains = j.at("hedge_gains").get<std::vector<double>>();
   if (gains.size() != 3) throw std::runtime_error("hedge_gains must hold 3 numbers");
   m.hedge_gains = Eigen::Vector3d(gains[0], gains[1], gains[2]);
+  if (j.contains("fall_hyperparameters")) {  // absent: no fall seen yet, or a store from before the fall model
+    const auto fall = j.at("fall_hyperparameters").get<std::vector<double>>();
+    m.have_fall_hyperparameters = true;
+    m.fall_hyperparameters = Eigen::Map<const Eigen::VectorXd>(fall.data(), static_cast<Eigen::Index>(fall.size()));
+  }
   return m;
+}
+
+// What the optimizer was told for a stored trial: its cost, or a failure; and whether it fell.
+bo::Observation stored_observation(const study::StoredTrial& t) {
+  bool fell = false;
+  if (t.ok && t.report.is_object() && t.report.contains("fell") && t.report["fell"].is_boolean()) {
+    fell = t.report["fell"].get<bool>();
+  }
+  return bo::Observation{t.x, t.cost, !t.ok, fell};
 }
 
 }  // namespace
@@ -80,6 +99,21 @@ Coordinator::Coordinator(study::StudyStore& store, Outbox& outbox, CoordinatorOp
 void Coordinator::reject(const std::string& what, const std::string& why) {
   ++rejected_;
   warn_(fmt::format("rejected {}: {}", what, why));
+}
+
+std::optional<std::string> Coordinator::identity_refusal(const std::string& worker_id,
+                                                         const std::optional<std::string>& sender_identity) const {
+  if (!options_.require_authenticated_workers) return std::nullopt;
+  if (!sender_identity || sender_identity->empty()) {
+    return std::string("DDS-Security is on and the sender's certificate is not known (no authenticated identity "
+                       "for its participant)");
+  }
+  if (!dds::worker_id_belongs_to(worker_id, *sender_identity)) {
+    return fmt::format("the sender's certificate is CN={}, which does not own worker id '{}' (a worker id must be "
+                       "its certificate's CN, or CN/suffix)",
+                       *sender_identity, worker_id);
+  }
+  return std::nullopt;
 }
 
 Coordinator::Study* Coordinator::find_study(int study_id) {
@@ -178,15 +212,15 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     }
     for (const auto* t : done) {
       if (t->trial_id == static_cast<int>(observations.size()) && observations.size() < told) {
-        observations.push_back({t->x, t->cost, !t->ok});
+        observations.push_back(stored_observation(*t));
         s.told_trials.push_back(t->trial_id);
       } else {
-        s.untold.emplace_back(t->trial_id, bo::Observation{t->x, t->cost, !t->ok});
+        s.untold.emplace_back(t->trial_id, stored_observation(*t));
       }
     }
   } else {
     for (const auto* t : done) {
-      observations.push_back({t->x, t->cost, !t->ok});
+      observations.push_back(stored_observation(*t));
       s.told_trials.push_back(t->trial_id);
     }
   }
@@ -339,10 +373,14 @@ void Coordinator::handle_command(const msg::StudyCommand& command, double now_s)
 
 // ---- workers -------------------------------------------------------------------------------------
 
-void Coordinator::handle_worker(const msg::WorkerAnnouncement& w, double now_s) {
+void Coordinator::handle_worker(const msg::WorkerAnnouncement& w, double now_s,
+                                const std::optional<std::string>& sender_identity) {
   const std::string id = w.worker_id().to_string();
   if (id.empty()) return reject("worker announcement", "empty worker_id");
   if (w.worker_key() != dds::worker_key(id)) return reject("worker announcement " + id, "worker_key is not the hash of worker_id");
+  // Before anything of it is taken: a participant that may not speak for `id` neither joins it nor keeps
+  // it alive (its heartbeats would hide the real worker's silence).
+  if (auto why = identity_refusal(id, sender_identity)) return reject("worker announcement " + id, *why);
   if (w.slots() < 1 || w.slots() > 4096) return reject("worker announcement " + id, fmt::format("slots = {}", w.slots()));
   auto [it, is_new] = workers_.try_emplace(id);
   Worker& worker = it->second;
@@ -358,9 +396,14 @@ void Coordinator::handle_worker(const msg::WorkerAnnouncement& w, double now_s) 
   }
 }
 
-void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s) {
+void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s,
+                                     const std::optional<std::string>& disposed_by) {
   for (const auto& [id, w] : workers_) {
-    if (w.key == worker_key) return drop_worker(id, "left the domain", now_s);
+    if (w.key != worker_key) continue;
+    if (disposed_by) {
+      if (auto why = identity_refusal(id, disposed_by)) return reject("dispose of worker " + id, *why);
+    }
+    return drop_worker(id, "left the domain", now_s);
   }
 }
 
@@ -428,24 +471,35 @@ void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s
   study.dirty = true;
 }
 
+int Coordinator::slots_free(const Worker& w) const {
+  const int usable = probation_.count(w.id) > 0 ? std::min(w.slots, 1) : w.slots;
+  return std::max(0, usable - static_cast<int>(w.assigned.size()));
+}
+
 std::vector<Coordinator::Worker*> Coordinator::free_slots(bool hardware) {
   std::vector<Worker*> ready;
   std::map<Worker*, int> free;
   for (auto& [id, w] : workers_) {
-    if (w.hardware == hardware && w.accepting && static_cast<int>(w.assigned.size()) < w.slots) {
+    if (w.hardware == hardware && w.accepting && slots_free(w) > 0) {
       ready.push_back(&w);
-      free[&w] = w.slots - static_cast<int>(w.assigned.size());
+      free[&w] = slots_free(w);
     }
   }
+  // Workers on probation come last: work goes to one only when no worker in good standing has a slot.
+  // Otherwise the same never-answering worker would take the same re-issued trial lease after lease (seen
+  // in deploy.forged_identity: the study's last trial stalled until the rogue left).
+  std::stable_partition(ready.begin(), ready.end(), [this](const Worker* w) { return probation_.count(w->id) == 0; });
   std::vector<Worker*> slots;
-  bool any = true;
-  while (any) {
-    any = false;
-    for (Worker* w : ready) {
-      if (free[w] > 0) {
-        slots.push_back(w);
-        --free[w];
-        any = true;
+  for (const bool on_probation : {false, true}) {
+    bool any = true;
+    while (any) {
+      any = false;
+      for (Worker* w : ready) {
+        if ((probation_.count(w->id) > 0) == on_probation && free[w] > 0) {
+          slots.push_back(w);
+          --free[w];
+          any = true;
+        }
       }
     }
   }
@@ -775,7 +829,8 @@ int Coordinator::apply_model_results() { return models_.run_finished(); }
 
 // ---- reports -------------------------------------------------------------------------------------
 
-void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
+void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
+                                const std::optional<std::string>& sender_identity) {
   const std::string what = fmt::format("report for study {} trial {} from {}", r.study_id(), r.trial_id(),
                                        r.worker_id().to_string());
   if (r.store_id() != 0 && r.store_id() != store_.store_id()) {
@@ -813,6 +868,16 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
     return reject(what, fmt::format("attempt {} was assigned to {}", r.attempt(),
                                     to == it->second.issued_to.end() ? std::string("no worker") : to->second));
   }
+  // The worker_id names the assigned worker; with DDS-Security it must also be the sender's own.
+  if (auto why = identity_refusal(r.worker_id().to_string(), sender_identity)) return reject(what, *why);
+  // The assigned worker answered an attempt of its own: it is no longer on probation (counted or not).
+  if (probation_.erase(r.worker_id().to_string()) > 0) {
+    info_(fmt::format("worker {} reported again: off probation, all its {} slots usable", r.worker_id().to_string(),
+                      [&] {
+                        const auto w = workers_.find(r.worker_id().to_string());
+                        return w == workers_.end() ? 0 : w->second.slots;
+                      }()));
+  }
   const Eigen::VectorXd x = it->second.x;
   const bool validation = it->second.validation;
   if (!store_.complete_trial(s->id, trial_id, r.ok(), r.ok() ? r.cost() : 0.0, dds::to_json(r), wall_now())) {
@@ -842,7 +907,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s) {
 }
 
 void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
-  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.cost() : 0.0, !r.ok()});
+  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.cost() : 0.0, !r.ok(), r.ok() && r.fell()});
   account_report(s, trial_id, x, r);
 }
 
@@ -950,6 +1015,13 @@ void Coordinator::tick(double now_s) {
     for (auto& [trial_id, f] : s.in_flight) {
       if (f.worker_id.empty() || now_s <= f.deadline_s) continue;
       if (auto w = workers_.find(f.worker_id); w != workers_.end()) w->second.assigned.erase({s.id, trial_id});
+      // It took a candidate and did not answer in time: until it answers, one candidate at a time, so a
+      // worker that claims many slots and never reports cannot hold a study's work lease after lease.
+      if (probation_.insert(f.worker_id).second) {
+        warn_(fmt::format("worker {} on probation: the lease of study {} trial {} expired; at most 1 candidate at a "
+                          "time until it reports",
+                          f.worker_id, s.id, trial_id));
+      }
       unassign(s, trial_id, "lease expired");
     }
   }

@@ -1,5 +1,6 @@
 #include "cpgmatch/bo/acquisition.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -65,6 +66,25 @@ AcquisitionValue evaluate_acquisition(Acquisition a, double mean, double std, do
     case Acquisition::kHedge: break;
   }
   throw std::logic_error("evaluate_acquisition: gp_hedge is a portfolio, not a single acquisition");
+}
+
+SafeAcquisitionValue evaluate_safe_acquisition(Acquisition a, double mean, double std, double p_safe,
+                                               double fall_level, double y_best, double xi, double kappa) {
+  const double p = std::clamp(p_safe, 0.0, 1.0);
+  if (a != Acquisition::kLowerConfidenceBound) {
+    const AcquisitionValue v = evaluate_acquisition(a, mean, std, y_best, xi, kappa);
+    return {p * v.value, p * v.d_mean, p * v.d_std, v.value};
+  }
+  // The bound if the proposal stands, the fall's cost if it falls. (The mixture's own lower bound would
+  // reward the spread between the two outcomes: the riskier the point, the more it would look worth
+  // exploring.)
+  const double bound = mean - kappa * std;
+  SafeAcquisitionValue out;
+  out.value = p * bound + (1.0 - p) * fall_level;
+  out.d_mean = p;
+  out.d_std = -kappa * p;
+  out.d_p = bound - fall_level;
+  return out;
 }
 
 }  // namespace cpgmatch::bo

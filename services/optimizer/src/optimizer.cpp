@@ -17,7 +17,7 @@ namespace {
 
 constexpr Acquisition kPortfolio[3] = {Acquisition::kExpectedImprovement, Acquisition::kLowerConfidenceBound,
                                        Acquisition::kProbabilityOfImprovement};
-enum Purpose : std::uint64_t { kAskPurpose = 1, kTellPurpose = 2, kFitPurpose = 3 };
+enum Purpose : std::uint64_t { kAskPurpose = 1, kTellPurpose = 2, kFitPurpose = 3, kFallFitPurpose = 4 };
 
 }  // namespace
 
@@ -65,7 +65,7 @@ Eigen::Vector3d HedgeState::probabilities() const {
 }
 
 BayesianOptimizer::BayesianOptimizer(SearchSpace space, OptimizerOptions options)
-    : space_(std::move(space)), options_(options), gp_(options.gp) {
+    : space_(std::move(space)), options_(options), gp_(options.gp), fall_(options.gp) {
   options_.validate();
   design_ = make_initial_design(options_.initial_design, options_.initial_points, space_.size(), options_.seed);
   hedge_.eta = options_.hedge_eta;
@@ -121,10 +121,10 @@ void BayesianOptimizer::check_cost(double y, const char* where) const {
   }
 }
 
-void BayesianOptimizer::tell(const Eigen::VectorXd& x, double y) {
+void BayesianOptimizer::tell(const Eigen::VectorXd& x, double y, bool fell) {
   space_.check_point(x);
   check_cost(y, "tell");
-  record({x, y, false});
+  record({x, y, false, fell});
 }
 
 void BayesianOptimizer::tell_failure(const Eigen::VectorXd& x) {
@@ -168,6 +168,7 @@ void BayesianOptimizer::refit() {
   gp_.fit(data.X, data.y, true, fit_rng, have_hyper_ ? &last_hyper_ : nullptr);
   last_hyper_ = gp_.hyperparameters();
   have_hyper_ = true;
+  fit_fall_model(true);
   ++fits_;
 
   // gp_hedge: reward each acquisition by minus the new model's mean at its previous proposal
@@ -176,6 +177,41 @@ void BayesianOptimizer::refit() {
     for (int a = 0; a < 3; ++a) hedge_.gains[a] -= gp_.predict(next_proposals_[a]).mean;
   }
   propose(data);
+}
+
+void BayesianOptimizer::fit_fall_model(bool optimise) {
+  if (!options_.fall_model) return;
+  std::vector<bool> fell;
+  std::vector<int> rows;
+  double level = 0.0;
+  int falls = 0;
+  for (std::size_t i = 0; i < observations_.size(); ++i) {
+    const Observation& o = observations_[i];
+    if (o.failed) continue;  // a crashed evaluation says nothing about falling
+    rows.push_back(static_cast<int>(i));
+    fell.push_back(o.fell);
+    if (o.fell) {
+      level += to_model(o.y);
+      ++falls;
+    }
+  }
+  Eigen::MatrixXd X(static_cast<Eigen::Index>(rows.size()), space_.size());
+  for (std::size_t r = 0; r < rows.size(); ++r) X.row(static_cast<Eigen::Index>(r)) = space_.to_unit(observations_[rows[r]].x).transpose();
+  fall_level_ = falls > 0 ? level / falls : 0.0;
+  // Same schedule as the cost GP: warm-started every fit, random restarts every k-th fit.
+  GpOptions fall_options = options_.gp;
+  const bool restart = !have_fall_hyper_ || fits_ % options_.hyperparameter_restart_every == 0;
+  if (optimise && !restart) {
+    fall_options.random_restarts = 0;
+    fall_options.max_evaluations = options_.hyperparameter_warm_evaluations;
+  }
+  fall_ = FallModel(fall_options);
+  auto rng = rng_for(observations_.size(), kFallFitPurpose);
+  fall_.fit(X, fell, optimise, rng, have_fall_hyper_ ? &last_fall_hyper_ : nullptr);
+  if (optimise && fall_.active()) {
+    last_fall_hyper_ = fall_.hyperparameters();
+    have_fall_hyper_ = true;
+  }
 }
 
 void BayesianOptimizer::propose(const Dataset& data) {
@@ -240,6 +276,7 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std:
     mean.segment(first, last - first) = mb;
     std.segment(first, last - first) = sb;
   });
+  const Eigen::VectorXd p_safe = fall_.probability_safe_many(C);  // all 1 while there is no fall model
 
   struct Context {
     const BayesianOptimizer* self;
@@ -251,15 +288,20 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std:
     const Eigen::Map<const Eigen::VectorXd> u(x, n);
     Eigen::VectorXd dmean, dstd;
     const Prediction p = c->self->gp_.predict_with_gradient(u, g ? &dmean : nullptr, g ? &dstd : nullptr);
-    const AcquisitionValue v =
-        evaluate_acquisition(c->a, p.mean, p.std, c->y_best, c->self->options_.xi, c->self->options_.kappa);
+    const SafeProbability safe = g ? c->self->fall_.probability_safe_with_gradient(u)
+                                   : SafeProbability{c->self->fall_.probability_safe(u), {}};
+    const SafeAcquisitionValue v = evaluate_safe_acquisition(c->a, p.mean, p.std, safe.p, c->self->fall_level_, c->y_best,
+                                                             c->self->options_.xi, c->self->options_.kappa);
     if (g) {
       for (unsigned i = 0; i < n; ++i) {
-        const double gi = v.d_mean * dmean[i] + v.d_std * dstd[i];
+        const double gi = v.d_mean * dmean[i] + v.d_std * dstd[i] + v.d_p * safe.dp_dx[i];
         g[i] = std::isfinite(gi) ? gi : 0.0;
       }
     }
     return std::isfinite(v.value) ? v.value : 1e300;
+  };
+  auto score_at = [&](Acquisition a, const Prediction& p, double p_safe_here) {
+    return evaluate_safe_acquisition(a, p.mean, p.std, p_safe_here, fall_level_, y_best, options_.xi, options_.kappa).value;
   };
 
   // Every acquisition's starting points (its best candidates), then every local refinement, independent
@@ -272,7 +314,7 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std:
     const Acquisition a = acquisitions[k];
     std::vector<double>& score = scores[k];
     score.resize(m);
-    for (int j = 0; j < m; ++j) score[j] = evaluate_acquisition(a, mean[j], std[j], y_best, options_.xi, options_.kappa).value;
+    for (int j = 0; j < m; ++j) score[j] = score_at(a, Prediction{mean[j], std[j]}, p_safe[j]);
     std::vector<int>& order = orders[k];
     order.resize(m);
     std::iota(order.begin(), order.end(), 0);
@@ -302,8 +344,7 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std:
     } catch (const std::exception&) {
       // Roundoff-limited stop: keep whatever point NLopt left in x, re-scored here.
       const Eigen::Map<const Eigen::VectorXd> u(x.data(), d);
-      const Prediction p = gp_.predict(u);
-      value = evaluate_acquisition(a, p.mean, p.std, y_best, options_.xi, options_.kappa).value;
+      value = score_at(a, gp_.predict(u), fall_.probability_safe(u));
     }
     refined[static_cast<std::size_t>(task)] = {Eigen::Map<Eigen::VectorXd>(x.data(), d), value};
   });
@@ -429,6 +470,8 @@ ModelState BayesianOptimizer::model_state() const {
   s.have_hyperparameters = have_hyper_;
   if (have_hyper_) s.hyperparameters = last_hyper_.pack();
   s.hedge_gains = hedge_.gains;
+  s.have_fall_hyperparameters = have_fall_hyper_;
+  if (have_fall_hyper_) s.fall_hyperparameters = last_fall_hyper_.pack();
   return s;
 }
 
@@ -451,6 +494,14 @@ BayesianOptimizer BayesianOptimizer::restore(SearchSpace space, OptimizerOptions
   opt.have_hyper_ = state.have_hyperparameters;
   if (opt.have_hyper_) opt.last_hyper_ = GpHyperparameters::unpack(state.hyperparameters);
   opt.hedge_.gains = state.hedge_gains;
+  if (state.have_fall_hyperparameters) {
+    if (state.fall_hyperparameters.size() != opt.space_.size() + 2) {
+      throw InputError(fmt::format("model state has {} fall-model hyperparameters, a {}-dimensional space needs {}",
+                                   state.fall_hyperparameters.size(), opt.space_.size(), opt.space_.size() + 2));
+    }
+    opt.have_fall_hyper_ = true;
+    opt.last_fall_hyper_ = GpHyperparameters::unpack(state.fall_hyperparameters);
+  }
   if (opt.model_due() && opt.have_hyper_) {
     // The GP the last fit left, factorised once with its hyperparameters (no optimisation), and the
     // proposals computed from it with the same seeded generator as then.
@@ -458,11 +509,12 @@ BayesianOptimizer BayesianOptimizer::restore(SearchSpace space, OptimizerOptions
     std::mt19937_64 unused(0);
     opt.gp_ = GaussianProcess(opt.options_.gp);
     opt.gp_.fit(data.X, data.y, /*optimise=*/false, unused, &opt.last_hyper_);
+    if (opt.have_fall_hyper_) opt.fit_fall_model(/*optimise=*/false);
     opt.propose(data);
   }
   for (std::size_t i = state.observations; i < observations.size(); ++i) {
     if (observations[i].failed) opt.tell_failure(observations[i].x);
-    else opt.tell(observations[i].x, observations[i].y);
+    else opt.tell(observations[i].x, observations[i].y, observations[i].fell);
   }
   return opt;
 }
@@ -472,7 +524,7 @@ BayesianOptimizer BayesianOptimizer::rebuild(SearchSpace space, OptimizerOptions
   BayesianOptimizer opt(std::move(space), options);
   for (const auto& o : observations) {
     if (o.failed) opt.tell_failure(o.x);
-    else opt.tell(o.x, o.y);
+    else opt.tell(o.x, o.y, o.fell);
   }
   return opt;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -27,6 +28,65 @@ double body_angle_z(dBodyID body) {
   const dReal* q = dBodyGetQuaternion(body);
   return 2.0 * std::atan2(q[3], q[0]);
 }
+
+// Wraps an angle into (-pi, pi].
+double wrap_angle(double a) { return std::remainder(a, 2.0 * std::numbers::pi); }
+
+// A revolute joint of the sagittal plane: an ODE ball joint (3 constraint rows) plus, where the joint has
+// end stops, a one-axis angular motor that adds a row only while a stop is reached. Why not an ODE hinge
+// (5 rows): in a planar model its two out-of-plane rotation rows only repeat what planarity already
+// gives, and dWorldStep's dense solver costs O(rows^3): with 12 hinges it spent ~65% of a rollout in
+// the LDLT factorisation of 63 joint rows. Planarity is kept instead by projecting every body onto the
+// plane after each step (OdePlant::Impl::project_onto_plane), as ODE's own Plane2D demo does; every force
+// in the model lies in the plane, so the projection only removes round-off.
+//
+// Conventions are the hinge's that cpgmatch used before: the angle is body b's counter-clockwise rotation
+// relative to body a, zero in the pose the joint was made in; a positive torque turns b counter-clockwise
+// relative to a.
+class PlanarJoint {
+ public:
+  PlanarJoint() = default;
+  PlanarJoint(dWorldID world, dBodyID a, dBodyID b, double anchor_x, double anchor_y) : a_(a), b_(b) {
+    ball_ = dJointCreateBall(world, nullptr);
+    dJointAttach(ball_, a, b);
+    dJointSetBallAnchor(ball_, anchor_x, anchor_y, 0.0);
+    zero_ = relative_angle();
+  }
+
+  // End stops (radians, in this joint's angle): a user-mode angular motor about -z, which ODE
+  // constrains exactly as a hinge's stops (same limit code, same ERP/CFM defaults).
+  void set_stops(dWorldID world, double lo, double hi) {
+    stops_ = dJointCreateAMotor(world, nullptr);
+    dJointAttach(stops_, a_, b_);
+    dJointSetAMotorMode(stops_, dAMotorUser);
+    dJointSetAMotorNumAxes(stops_, 1);
+    dJointSetAMotorAxis(stops_, 0, 1, 0, 0, -1);  // relative to body a, -z: the motor's rate is rate()
+    dJointSetAMotorParam(stops_, dParamLoStop, lo);
+    dJointSetAMotorParam(stops_, dParamHiStop, hi);
+    dJointSetAMotorAngle(stops_, 0, angle());
+  }
+
+  double angle() const { return wrap_angle(relative_angle() - zero_); }
+  double rate() const { return dBodyGetAngularVel(b_)[2] - dBodyGetAngularVel(a_)[2]; }
+
+  void add_torque(double torque) const {
+    dBodyAddTorque(a_, 0, 0, -torque);
+    dBodyAddTorque(b_, 0, 0, torque);
+  }
+
+  // A user-mode motor knows its angle only from us: called before every step.
+  void update_stops() const {
+    if (stops_ != nullptr) dJointSetAMotorAngle(stops_, 0, angle());
+  }
+
+ private:
+  double relative_angle() const { return body_angle_z(b_) - body_angle_z(a_); }
+
+  dBodyID a_ = nullptr, b_ = nullptr;
+  dJointID ball_ = nullptr;
+  dJointID stops_ = nullptr;
+  double zero_ = 0.0;
+};
 
 // Torque a motor can give at joint speed w: the stall torque, falling linearly to zero at the no-load
 // speed when the motor is driving in the direction of motion (a DC motor's torque-speed line).
@@ -71,7 +131,7 @@ struct ToeContacts {
 struct OdePlant::Impl {
   struct LegBodies {
     dBodyID femur, shank, foot;
-    dJointID hip, knee, ankle;
+    PlanarJoint hip, knee, ankle;
     dGeomID toe;
     double knee_motor_flexion = 0.0;  // absolute flexion of the knee motor's output (spring rest)
     double hip_torque = 0.0;
@@ -191,16 +251,9 @@ struct OdePlant::Impl {
     dBodySetMass(femur, &mass);
   }
 
-  dJointID make_hinge(dBodyID a, dBodyID b, Vec2 anchor) {
-    dJointID j = dJointCreateHinge(world, nullptr);
-    dJointAttach(j, a, b);
-    dJointSetHingeAnchor(j, anchor.x, anchor.y, 0.0);
-    // ODE measures a hinge angle as body1's rotation relative to body2 about the axis; with the axis
-    // along -z the angle is body2's counter-clockwise rotation relative to body1, the convention used
-    // everywhere in cpgmatch (hip angle + = foot forward).
-    dJointSetHingeAxis(j, 0, 0, -1);
-    return j;
-  }
+  // Angles: body b's counter-clockwise rotation relative to body a, the convention used everywhere in
+  // cpgmatch (hip angle + = foot forward).
+  PlanarJoint make_joint(dBodyID a, dBodyID b, Vec2 anchor) { return PlanarJoint(world, a, b, anchor.x, anchor.y); }
 
   void build_robot() {
     const double a0 = model.femur_mount_angle_rad;
@@ -226,16 +279,14 @@ struct OdePlant::Impl {
       add_reflected_inertia(leg.femur, model.hip_motor.reflected_inertia_kg_m2);
       leg.shank = make_segment(knee, a0 - b0, model.shank);
       leg.foot = make_segment(ankle, a0, model.foot);
-      leg.hip = make_hinge(trunk, leg.femur, hip);
-      leg.knee = make_hinge(leg.femur, leg.shank, knee);
-      leg.ankle = make_hinge(leg.shank, leg.foot, ankle);
-      // Knee hinge angle = -(flexion - b0): stops keep the flexion inside its mechanical range.
-      dJointSetHingeParam(leg.knee, dParamLoStop, b0 - model.knee_max_flexion_rad);
-      dJointSetHingeParam(leg.knee, dParamHiStop, b0 - model.knee_min_flexion_rad);
+      leg.hip = make_joint(trunk, leg.femur, hip);
+      leg.knee = make_joint(leg.femur, leg.shank, knee);
+      leg.ankle = make_joint(leg.shank, leg.foot, ankle);
+      // Knee angle = -(flexion - b0): stops keep the flexion inside its mechanical range.
+      leg.knee.set_stops(world, b0 - model.knee_max_flexion_rad, b0 - model.knee_min_flexion_rad);
       // The parallel mechanism's end stops: the foot turns at most ankle_range_rad either way from its
       // standing pose relative to the shank.
-      dJointSetHingeParam(leg.ankle, dParamLoStop, -model.ankle_range_rad);
-      dJointSetHingeParam(leg.ankle, dParamHiStop, model.ankle_range_rad);
+      leg.ankle.set_stops(world, -model.ankle_range_rad, model.ankle_range_rad);
       leg.toe = dCreateSphere(nullptr, model.toe_radius_m);
       dGeomSetBody(leg.toe, leg.foot);
       dGeomSetOffsetPosition(leg.toe, 0.0, -0.5 * model.foot.length_m, 0.0);
@@ -244,7 +295,7 @@ struct OdePlant::Impl {
   }
 
   double knee_flexion(const LegBodies& leg) const {
-    return model.knee_stand_flexion_rad - dJointGetHingeAngle(leg.knee);
+    return model.knee_stand_flexion_rad - leg.knee.angle();
   }
 
   void apply_actuators() {
@@ -253,8 +304,8 @@ struct OdePlant::Impl {
       const JointCommand& cmd = commands[i];
 
       // Hip: PD position controller within the motor's torque-speed envelope.
-      const double q = dJointGetHingeAngle(leg.hip);
-      const double qd = dJointGetHingeAngleRate(leg.hip);
+      const double q = leg.hip.angle();
+      const double qd = leg.hip.rate();
       double tau_hip = 0.0;
       if (!cmd.hip_passive) {
         const auto& m = model.hip_motor;
@@ -263,13 +314,13 @@ struct OdePlant::Impl {
       // Viscous gearbox drag acts whether the motor drives or is back-driven (passive hip).
       const double drag = -model.hip_motor.viscous_friction_nm_s_per_rad * qd +
                           dry_friction(model.hip_motor.coulomb_friction_nm, qd);
-      dJointAddHingeTorque(leg.hip, tau_hip + drag);
+      leg.hip.add_torque(tau_hip + drag);
       leg.hip_torque = tau_hip;
 
       // Knee: the motor positions the rest angle of the series knee spring. Its output moves at most at
       // the no-load speed and is back-driven when the spring torque exceeds the stall torque.
       const double beta = knee_flexion(leg);
-      const double beta_rate = -dJointGetHingeAngleRate(leg.knee);
+      const double beta_rate = -leg.knee.rate();
       const auto& km = model.knee_motor;
       const double target = model.knee_stand_flexion_rad + cmd.knee_flexion_rad;
       const double speed = std::clamp(model.knee_motor_bandwidth_per_s * (target - leg.knee_motor_flexion),
@@ -281,17 +332,18 @@ struct OdePlant::Impl {
       const double spring_torque = k * (leg.knee_motor_flexion - beta);
       const double flex_torque = spring_torque - model.knee_spring.damping_nm_s_per_rad * beta_rate;
       // Positive hinge torque extends the knee; the bearing's friction opposes the hinge's own rate.
-      dJointAddHingeTorque(leg.knee, -flex_torque +
-                                         dry_friction(model.knee_joint_friction_nm, dJointGetHingeAngleRate(leg.knee)));
+      leg.knee.add_torque(-flex_torque + dry_friction(model.knee_joint_friction_nm, leg.knee.rate()));
       leg.knee_torque = spring_torque;
 
       // Biarticular spring: holds the foot parallel to the femur (the parallel mechanism's rest).
-      const double deviation = dJointGetHingeAngle(leg.knee) + dJointGetHingeAngle(leg.ankle);
-      const double deviation_rate = dJointGetHingeAngleRate(leg.knee) + dJointGetHingeAngleRate(leg.ankle);
+      const double deviation = leg.knee.angle() + leg.ankle.angle();
+      const double deviation_rate = leg.knee.rate() + leg.ankle.rate();
       const double tau_b = -model.biarticular_spring.stiffness_nm_per_rad * deviation -
                            model.biarticular_spring.damping_nm_s_per_rad * deviation_rate;
       dBodyAddTorque(leg.foot, 0, 0, tau_b);
       dBodyAddTorque(leg.femur, 0, 0, -tau_b);
+      leg.knee.update_stops();
+      leg.ankle.update_stops();
     }
   }
 
@@ -315,9 +367,22 @@ struct OdePlant::Impl {
         contact.surface.mu = c.friction;
         contact.surface.soft_erp = erp;
         contact.surface.soft_cfm = cfm;
+        // Friction along the ground's in-plane tangent only: every force of the model lies in the plane,
+        // so an out-of-plane friction row would carry nothing but costs the solver a row (mu2 = 0 drops it).
+        const double* n = geoms[k].normal;
+        const double tangent_norm = std::hypot(n[0], n[1]);
+        if (tangent_norm > 1e-9) {
+          contact.surface.mode |= dContactMu2 | dContactFDir1;
+          contact.surface.mu2 = 0.0;
+          contact.fdir1[0] = n[1] / tangent_norm;  // (1, 0, 0) on level ground
+          contact.fdir1[1] = -n[0] / tangent_norm;
+          contact.fdir1[2] = 0.0;
+        }
         if (terrain.treadmill_speed_mps != 0.0) {
           contact.surface.mode |= dContactMotion1 | dContactFDir1;
           contact.fdir1[0] = 1.0;
+          contact.fdir1[1] = 0.0;
+          contact.fdir1[2] = 0.0;
           contact.surface.motion1 = -belt_speed();  // the belt surface moves backwards (-x)
         }
         dJointID j = dJointCreateContact(world, contact_group, &contact);
@@ -341,14 +406,28 @@ struct OdePlant::Impl {
     }
   }
 
-  // Plane2D allows tiny roll/yaw drift; project the trunk back onto pure pitch each step.
-  void project_trunk() {
-    const dReal* q = dBodyGetQuaternion(trunk);
+  // Keeps a body in the plane z = 0 turning about z only: removes the round-off that the solver leaves
+  // out of the plane (the joints do not constrain it, see PlanarJoint; Plane2D lets the trunk drift too).
+  static void project_onto_plane(dBodyID body) {
+    const dReal* q = dBodyGetQuaternion(body);
     const double norm = std::hypot(q[0], q[3]);
     dQuaternion fixed{q[0] / norm, 0, 0, q[3] / norm};
-    dBodySetQuaternion(trunk, fixed);
-    const dReal* w = dBodyGetAngularVel(trunk);
-    dBodySetAngularVel(trunk, 0, 0, w[2]);
+    dBodySetQuaternion(body, fixed);
+    const dReal* w = dBodyGetAngularVel(body);
+    dBodySetAngularVel(body, 0, 0, w[2]);
+    const dReal* p = dBodyGetPosition(body);
+    dBodySetPosition(body, p[0], p[1], 0.0);
+    const dReal* v = dBodyGetLinearVel(body);
+    dBodySetLinearVel(body, v[0], v[1], 0.0);
+  }
+
+  void project_onto_plane() {
+    project_onto_plane(trunk);
+    for (const auto& leg : legs) {
+      project_onto_plane(leg.femur);
+      project_onto_plane(leg.shank);
+      project_onto_plane(leg.foot);
+    }
   }
 
   void step() {
@@ -362,7 +441,7 @@ struct OdePlant::Impl {
     dWorldStep(world, dt);
     read_contact_forces();
     dJointGroupEmpty(contact_group);
-    project_trunk();
+    project_onto_plane();
     time += dt;
   }
 };
@@ -393,7 +472,7 @@ PlantState OdePlant::state() const {
   s.trunk.pitch_rad = body_angle_z(m.trunk);
   for (int i = 0; i < kNumLegs; ++i) {
     const auto& leg = m.legs[i];
-    s.legs[i].hip_angle_rad = dJointGetHingeAngle(leg.hip);
+    s.legs[i].hip_angle_rad = leg.hip.angle();
     s.legs[i].knee_flexion_rad = m.knee_flexion(leg) - m.model.knee_stand_flexion_rad;
     s.legs[i].hip_torque_nm = leg.hip_torque;
     s.legs[i].knee_torque_nm = leg.knee_torque;

@@ -34,4 +34,11 @@ std::string profiles_file_for(const std::string& profile);
 // Exports the selection for this process and its children (see cpgmatch/dds/profile.hpp).
 void apply_dds_flags(const DdsFlags& flags);
 
+// The worker id of a simulation worker or robot agent, after apply_dds_flags. With DDS-Security the
+// optimizer only takes worker ids the sender's certificate owns (its CN, or CN/suffix:
+// dds::worker_id_belongs_to), so without --id the id is the certificate's CN, and an --id it does not own
+// stops the program with exit 2 (InputError) instead of running a worker whose reports never count.
+// Without security: `id`, or `fallback` when it is empty.
+std::string resolve_worker_id(const std::string& id, const std::string& fallback);
+
 }  // namespace cpgmatch::runtime

@@ -15,6 +15,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,17 @@ struct ParticipantConfig {
   // Called (on a DDS thread) with the name of every remote participant that joins the domain; how the
   // optimizer notices a second optimizer on its domain.
   std::function<void(const std::string& name)> on_peer_discovered;
+  // Keep the authenticated identity (certificate CN) of every remote participant, so that samples can be
+  // attributed to it (Participant::identity_of). Only meaningful with DDS-Security.
+  bool track_identities = false;
+  // Called (on a DDS thread) when a remote participant's announced identity is refused (see
+  // authenticated_common_name), with its GUID prefix and the reason.
+  std::function<void(const std::string& what)> on_identity_refused;
+};
+
+// Where a sample came from: the GUID prefix of the writing participant.
+struct SampleOrigin {
+  eprosima::fastrtps::rtps::GuidPrefix_t participant;
 };
 
 class Participant {
@@ -60,6 +72,10 @@ class Participant {
   eprosima::fastdds::dds::Publisher* publisher() { return publisher_; }
   eprosima::fastdds::dds::Subscriber* subscriber() { return subscriber_; }
   int domain() const { return domain_; }
+  // The CN of the certificate DDS-Security authenticated for the remote participant `prefix` (needs
+  // track_identities); nothing when unknown: no security, not (or no longer) discovered, or a participant
+  // whose IdentityToken announces a subject its GUID was not derived from.
+  std::optional<std::string> identity_of(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix) const;
 
  private:
   int domain_;
@@ -70,6 +86,10 @@ class Participant {
   std::map<TopicId, eprosima::fastdds::dds::Topic*> topics_;
   struct PeerListener : eprosima::fastdds::dds::DomainParticipantListener {
     std::function<void(const std::string&)> on_peer;
+    bool track_identities = false;
+    std::function<void(const std::string&)> on_identity_refused;
+    mutable std::mutex mutex;
+    std::map<eprosima::fastrtps::rtps::GuidPrefix_t, std::string> identities;  // participant -> CN
     void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
                                   eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
   };
@@ -142,6 +162,9 @@ class Writer {
 // What a reader reports besides data: an instance whose writer vanished or disposed it.
 struct InstanceGone {
   bool disposed = false;  // false: no writer is alive any more (crash, lost liveliness)
+  // A dispose: the participant whose writer disposed it (who may speak for the instance is the caller's
+  // question, e.g. with DDS-Security). Unknown (zero) when no writer is left.
+  SampleOrigin origin{};
 };
 
 template <class T>
@@ -150,9 +173,17 @@ class Reader {
   using OnSample = std::function<void(const T&)>;
   // `on_gone` gets the key fields of an instance that was disposed or lost all its writers.
   using OnGone = std::function<void(const T& key, InstanceGone)>;
+  // Also told which participant wrote the sample (to look up its authenticated identity).
+  using OnSampleFrom = std::function<void(const T&, const SampleOrigin&)>;
+  struct WithOrigin {};
 
   Reader(Participant& p, OnSample on_sample, OnGone on_gone = {})
       : participant_(p), listener_(std::move(on_sample), std::move(on_gone)) {
+    reader_ = detail::create_reader(p, p.topic(TopicOf<T>::id), TopicOf<T>::id, &listener_);
+  }
+  Reader(Participant& p, WithOrigin, OnSampleFrom on_sample, OnGone on_gone = {})
+      : participant_(p), listener_(OnSample{}, std::move(on_gone)) {
+    listener_.on_sample_from = std::move(on_sample);
     reader_ = detail::create_reader(p, p.topic(TopicOf<T>::id), TopicOf<T>::id, &listener_);
   }
   // Reads only samples matching a DDS-SQL `expression` with `parameters` (a content-filtered topic).
@@ -180,12 +211,14 @@ class Reader {
           // Remember each instance's key: a dispose or a lost writer arrives with the handle only.
           if (on_gone) last_by_instance[info.instance_handle] = sample;
           if (on_sample) on_sample(sample);
+          if (on_sample_from) on_sample_from(sample, SampleOrigin{info.sample_identity.writer_guid().guidPrefix});
         } else if (on_gone) {
           const auto it = last_by_instance.find(info.instance_handle);
           if (it == last_by_instance.end()) continue;
           const T key = it->second;
           last_by_instance.erase(it);
-          on_gone(key, InstanceGone{info.instance_state == dds::NOT_ALIVE_DISPOSED_INSTANCE_STATE});
+          on_gone(key, InstanceGone{info.instance_state == dds::NOT_ALIVE_DISPOSED_INSTANCE_STATE,
+                                    SampleOrigin{info.sample_identity.writer_guid().guidPrefix}});
         }
       }
     }
@@ -194,6 +227,7 @@ class Reader {
       matched.add(s.current_count_change);
     }
     OnSample on_sample;
+    OnSampleFrom on_sample_from;
     OnGone on_gone;
     MatchCounter matched;
     std::map<eprosima::fastrtps::rtps::InstanceHandle_t, T> last_by_instance;

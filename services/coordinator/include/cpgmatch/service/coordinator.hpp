@@ -21,6 +21,13 @@
 //    its N sets are stored at once (phase "validation"), so a restart issues the same sets. Validation
 //    reports are never told to the optimizer: they measure the answer on hardware, they do not steer it.
 //    No hardware worker on the domain: the study waits and says so in its state's message.
+//  * a report counts only from the worker its attempt was issued to; with DDS-Security on
+//    (CoordinatorOptions::require_authenticated_workers) also only when that worker id belongs to the
+//    sender's certificate (its CN, or CN/suffix: dds::worker_id_belongs_to), and a participant may only
+//    announce worker ids its certificate owns. The DDS shell hands in the sender's authenticated CN.
+//  * a slot count is a claim, not a right: a worker whose lease expired (it took a candidate and never
+//    answered in time) is on probation, with at most one candidate at a time, until a report of its own
+//    arrives for an attempt it was issued. Probation outlives the worker's leaving and rejoining.
 #pragma once
 
 #include <cmath>
@@ -114,6 +121,10 @@ struct CoordinatorOptions {
   std::function<void()> on_model_result;
   // Called on the model thread at the start of every model job (tests hold a job with it).
   std::function<void(int study_id)> model_job_hook;
+  // DDS-Security is on: a report or announcement counts only with the sender's authenticated identity
+  // (the CN of its certificate) and a worker_id that identity owns (dds::worker_id_belongs_to). Without
+  // security there is no identity to check and worker ids are taken as written.
+  bool require_authenticated_workers = false;
 };
 
 using LogFn = std::function<void(const std::string&)>;
@@ -128,9 +139,17 @@ class Coordinator {
   void resume_from_store(double now_s);
 
   void handle_command(const msg::StudyCommand& command, double now_s);
-  void handle_report(const msg::RolloutReport& report, double now_s);
-  void handle_worker(const msg::WorkerAnnouncement& announcement, double now_s);
-  void handle_worker_gone(std::uint64_t worker_key, double now_s);
+  // `sender_identity`: the CN of the sending participant's certificate as DDS-Security authenticated it
+  // (std::nullopt: unknown, or no security). Only looked at with require_authenticated_workers.
+  void handle_report(const msg::RolloutReport& report, double now_s,
+                     const std::optional<std::string>& sender_identity = std::nullopt);
+  void handle_worker(const msg::WorkerAnnouncement& announcement, double now_s,
+                     const std::optional<std::string>& sender_identity = std::nullopt);
+  // `disposed_by`: for a dispose with DDS-Security, the disposing participant's CN ("" unknown); it must own
+  // the worker id, or the dispose is refused (another identity cannot drop a worker). Nothing: no check
+  // (no security, or the worker's writers are gone).
+  void handle_worker_gone(std::uint64_t worker_key, double now_s,
+                          const std::optional<std::string>& disposed_by = std::nullopt);
   // Applies finished model results, expires silent workers and overdue leases, fills free slots (starting
   // model jobs for the points still needed), publishes changed study states.
   void tick(double now_s);
@@ -147,6 +166,7 @@ class Coordinator {
   bool idle() const;  // no running study has work left
   std::uint64_t rejected_samples() const { return rejected_; }
   std::uint64_t foreign_reports() const { return foreign_reports_; }  // for another store: ignored
+  bool on_probation(const std::string& worker_id) const { return probation_.count(worker_id) > 0; }
 
  private:
   struct InFlight {
@@ -211,6 +231,11 @@ class Coordinator {
   };
 
   void reject(const std::string& what, const std::string& why);
+  // With require_authenticated_workers: why `sender_identity` may not speak for `worker_id`, or nothing.
+  std::optional<std::string> identity_refusal(const std::string& worker_id,
+                                              const std::optional<std::string>& sender_identity) const;
+  // Free slots a worker may be given now: its announced slots, or one while on probation, minus what it holds.
+  int slots_free(const Worker& w) const;
   void submit(const msg::StudyCommand& command, double now_s, msg::CommandReply& reply);
   Study* find_study(int study_id);
   void open_study(Study&& study, const study::StoredStudy* stored, double now_s);
@@ -290,6 +315,9 @@ class Coordinator {
   std::uint64_t rejected_ = 0;
   std::uint64_t foreign_reports_ = 0;
   std::set<std::uint64_t> foreign_stores_;  // store ids whose reports were ignored (logged once each)
+  // Workers whose lease expired and who have not reported since: one candidate at a time. By id, not in
+  // Worker, so that leaving and rejoining the domain does not clear it.
+  std::set<std::string> probation_;
   ModelPool models_;  // last member: destroyed first, so no job outlives what it refers to
 };
 

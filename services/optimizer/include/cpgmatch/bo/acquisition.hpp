@@ -32,4 +32,20 @@ AcquisitionValue negative_probability_of_improvement(double mean, double std, do
 // Dispatches on a base acquisition (not kHedge).
 AcquisitionValue evaluate_acquisition(Acquisition a, double mean, double std, double y_best, double xi, double kappa);
 
+// The acquisition when a proposal may fall (see fall_model.hpp). The outcome is a mixture: with
+// probability p_safe a cost from the GP (mean, std), otherwise a fall, whose cost in model units is
+// fall_level (the mean of the observed falls). Then
+//   EI  -> p_safe EI      (a fall never improves on the best: the mixture's expected improvement)
+//   PI  -> p_safe PI      (the mixture's probability of improvement)
+//   LCB -> p_safe (mean - kappa std) + (1 - p_safe) fall_level   (the bound if it stands, the fall if not)
+// With p_safe = 1 each reduces exactly to the plain acquisition. d_p is d value / d p_safe.
+struct SafeAcquisitionValue {
+  double value = 0.0;
+  double d_mean = 0.0;
+  double d_std = 0.0;
+  double d_p = 0.0;
+};
+SafeAcquisitionValue evaluate_safe_acquisition(Acquisition a, double mean, double std, double p_safe,
+                                               double fall_level, double y_best, double xi, double kappa);
+
 }  // namespace cpgmatch::bo

@@ -22,6 +22,10 @@
 // walks a path of neighbouring points whatever their results (31 consecutive rollouts in one measured study,
 // tests/unit/data/walk_study_trials.csv).
 //
+// With fall_model on, a second GP (FallModel, fall_model.hpp) learns from the observations flagged `fell`
+// where proposals fall, and every acquisition is weighted by the probability of not falling
+// (evaluate_safe_acquisition). Until the first fall it changes nothing.
+//
 // Failed evaluations are kept and enter the GP with the worst successful cost observed so far
 // (re-imputed at every fit), which pushes the search away from them without inventing a scale.
 #pragma once
@@ -36,6 +40,7 @@
 #include <Eigen/Core>
 
 #include "cpgmatch/bo/acquisition.hpp"
+#include "cpgmatch/bo/fall_model.hpp"
 #include "cpgmatch/bo/gaussian_process.hpp"
 #include "cpgmatch/bo/initial_design.hpp"
 #include "cpgmatch/bo/search_space.hpp"
@@ -67,6 +72,10 @@ struct OptimizerOptions {
   int acquisition_local_evaluations = 40;
   LiarStrategy liar = LiarStrategy::kBeliever;
   CostTransform cost_transform = CostTransform::kNone;
+  // Learn where evaluations fall (observations with fell = true) and weight the acquisitions by the
+  // probability of not falling. Off by default for plain functions; studies switch it on (a fall is a
+  // robot on the floor, whatever it costs).
+  bool fall_model = false;
   std::uint64_t seed = 0;
   GpOptions gp;
   // Hyperparameters: warm-started L-BFGS at every fit; random restarts at every k-th fit as well.
@@ -84,6 +93,7 @@ struct Observation {
   Eigen::VectorXd x;  // in the space's units
   double y = 0.0;     // meaningful only when !failed
   bool failed = false;
+  bool fell = false;  // a successful evaluation that ended in a fall (y is its cost, still valid)
 };
 
 struct HedgeState {
@@ -100,6 +110,8 @@ struct ModelState {
   bool have_hyperparameters = false;
   Eigen::VectorXd hyperparameters;      // GpHyperparameters::pack() of the latest fit
   Eigen::Vector3d hedge_gains = Eigen::Vector3d::Zero();
+  bool have_fall_hyperparameters = false;  // the fall model's latest fit (fall_model on, falls seen)
+  Eigen::VectorXd fall_hyperparameters;
 };
 
 class BayesianOptimizer {
@@ -110,7 +122,7 @@ class BayesianOptimizer {
   std::vector<Eigen::VectorXd> ask(int n, const std::vector<Eigen::VectorXd>& pending = {});
 
   // Throws InputError for a point outside the space or a non-finite y (use tell_failure instead).
-  void tell(const Eigen::VectorXd& x, double y);
+  void tell(const Eigen::VectorXd& x, double y, bool fell = false);
   void tell_failure(const Eigen::VectorXd& x);
   // Several results at once (failed ones with failed = true), in order, with one model fit for all of
   // them: what a service does with the reports that arrived while its model was busy. Every point is
@@ -131,6 +143,7 @@ class BayesianOptimizer {
   const SearchSpace& space() const { return space_; }
   const OptimizerOptions& options() const { return options_; }
   const GaussianProcess& model() const { return gp_; }
+  const FallModel& fall_model() const { return fall_; }
   bool model_ready() const { return gp_.fitted() && !next_proposals_.empty(); }
   // Threads for the acquisition search (candidate posterior and local refinements, this one included).
   // Not part of the optimizer's state: what it proposes is the same, to the last bit, for any number.
@@ -158,6 +171,9 @@ class BayesianOptimizer {
   Dataset dataset() const;
   void record(Observation obs);
   void refit();
+  // Fits the fall model to the successful observations (fall_model on); optimise = false refactorises
+  // with last_fall_hyper_.
+  void fit_fall_model(bool optimise);
   // The end of a refit, once the GP is fitted: the next proposal of every acquisition.
   void propose(const Dataset& data);
   double to_model(double cost) const;     // the cost in the units the GP models (cost_transform)
@@ -181,6 +197,10 @@ class BayesianOptimizer {
   bool have_hyper_ = false;
   int fits_ = 0;
   HedgeState hedge_;
+  FallModel fall_;
+  GpHyperparameters last_fall_hyper_;
+  bool have_fall_hyper_ = false;
+  double fall_level_ = 0.0;  // mean model-unit cost of the observed falls
   std::vector<Eigen::VectorXd> next_proposals_;  // unit cube; per base acquisition (EI, LCB, PI) or one
   int threads_ = 1;
 };
