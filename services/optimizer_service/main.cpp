@@ -6,6 +6,8 @@
 //
 // DDS listeners only queue samples; one thread runs the coordinator (see coordinator.hpp); model fits and
 // acquisition optimisation run on --model-threads threads beside it.
+#include <malloc.h>
+
 #include <algorithm>
 #include <csignal>
 #include <cstdlib>
@@ -94,10 +96,11 @@ class DdsOutbox final : public Outbox {
 };
 
 int run(int domain, const std::string& store_path, bool full_durability, double worker_timeout_s, bool localhost_only,
-        int model_threads) {
+        int model_threads, int acquisition_threads) {
   dds::validate_domain(domain);
   if (worker_timeout_s <= 0.0) throw InputError("--worker-timeout must be > 0");
   if (model_threads < 1 || model_threads > 64) throw InputError("--model-threads must be in [1, 64]");
+  if (acquisition_threads < 1 || acquisition_threads > 16) throw InputError("--acquisition-threads must be in [1, 16]");
   const study::StoreLock lock(store_path);  // before the store is touched: one optimizer per store
   std::unique_ptr<study::StudyStore> opened;
   try {
@@ -112,6 +115,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   options.worker_timeout_s = worker_timeout_s;
   options.base_parameters = load_parameters(sim::default_params_path());
   options.model_threads = model_threads;
+  options.acquisition_threads = acquisition_threads;
   service::EventQueue<Event> queue;
   options.on_model_result = [&queue] { queue.push(Event{ModelResult{}}); };
   // With DDS-Security, a report or an announcement counts only from a participant whose certificate owns
@@ -131,7 +135,8 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   dds_config.track_identities = secure;
   dds_config.on_identity_refused = [](const std::string& why) { spdlog::warn("{}", why); };
   dds::Participant participant(dds_config);
-  DdsOutbox outbox(participant);
+  DdsOutbox dds_outbox(participant);
+  DeferredOutbox outbox(dds_outbox);
   service::Coordinator coordinator(
       store, outbox, options, [](const std::string& m) { spdlog::info("{}", m); },
       [](const std::string& m) { spdlog::warn("{}", m); });
@@ -163,31 +168,64 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   auto log_latency = [&] {
     spdlog::info("event loop: sample arrival to handled: {}; tick: {}", sample_latency.summary(), tick_duration.summary());
   };
+  // Each burst of samples drained from the queue is handled in one store transaction, and so is each tick;
+  // what they publish is held until that transaction commits (DeferredOutbox), so nothing is acknowledged
+  // that the store does not hold, as when each write committed on its own, at one commit per burst.
+  auto in_one_transaction = [&](auto&& body) {
+    study::StudyStore::Batch batch(store);
+    outbox.hold();
+    try {
+      body();
+      batch.commit();
+    } catch (...) {
+      outbox.discard();  // rolled back: none of it happened
+      throw;
+    }
+    outbox.release();
+  };
   while (!g_stop) {
-    for (auto& event : queue.drain(std::chrono::milliseconds(20))) {
-      const double now = monotonic_now_s();
-      try {
-        std::visit(
-            [&](auto& e) {
-              using T = std::decay_t<decltype(e)>;
-              if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
-              else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) coordinator.handle_report(e.sample, now, e.sender);
-              else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) coordinator.handle_worker(e.sample, now, e.sender);
-              else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now, e.disposed_by);
-            },
-            event.sample);
-      } catch (const study::StoreWriteError&) {
-        throw;  // disk full, read-only store: stop and say so (run_reporting_errors); nothing unrecorded was acknowledged
-      } catch (const std::exception& e) {
-        // A sample that slipped past validation must not take the service down.
-        spdlog::error("event dropped: {}", e.what());
+    auto events = queue.drain(std::chrono::milliseconds(20));
+    // A long burst goes in chunks (kMaxChunkEvents samples or kMaxChunk of handling, whichever comes
+    // first), so the first sample of a burst is not acknowledged only after the last one is handled.
+    constexpr std::size_t kMaxChunkEvents = 16;
+    constexpr auto kMaxChunk = std::chrono::milliseconds(2);
+    for (std::size_t first = 0; first < events.size();) {
+      std::size_t last = first;
+      in_one_transaction([&] {
+        const auto chunk_start = std::chrono::steady_clock::now();
+        while (last < events.size() && last - first < kMaxChunkEvents &&
+               std::chrono::steady_clock::now() - chunk_start < kMaxChunk) {
+          auto& event = events[last++];
+          const double now = monotonic_now_s();
+          try {
+            std::visit(
+                [&](auto& e) {
+                  using T = std::decay_t<decltype(e)>;
+                  if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
+                  else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) coordinator.handle_report(e.sample, now, e.sender);
+                  else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) coordinator.handle_worker(e.sample, now, e.sender);
+                  else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now, e.disposed_by);
+                },
+                event.sample);
+          } catch (const study::StoreWriteError&) {
+            throw;  // disk full, read-only store: stop and say so (run_reporting_errors); nothing unrecorded was acknowledged
+          } catch (const std::exception& e) {
+            // A sample that slipped past validation must not take the service down.
+            spdlog::error("event dropped: {}", e.what());
+          }
+        }
+      });
+      // Handled = committed and its effects published.
+      const auto handled = std::chrono::steady_clock::now();
+      for (std::size_t i = first; i < last; ++i) {
+        if (!std::holds_alternative<ModelResult>(events[i].sample)) {
+          sample_latency.add(std::chrono::duration<double>(handled - events[i].arrived).count());
+        }
       }
-      if (!std::holds_alternative<ModelResult>(event.sample)) {
-        sample_latency.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - event.arrived).count());
-      }
+      first = last;
     }
     const auto tick_start = std::chrono::steady_clock::now();
-    coordinator.tick(monotonic_now_s());
+    in_one_transaction([&] { coordinator.tick(monotonic_now_s()); });
     tick_duration.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - tick_start).count());
     if (g_print_stats) {
       g_print_stats = 0;
@@ -206,6 +244,12 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
 
 int main(int argc, char** argv) {
   using namespace cpgmatch;
+  // Model jobs allocate and free matrices of 0.1-2 MB many times per proposal (kernels of 1000 candidates,
+  // n x n factors). Above glibc's default thresholds each one is a fresh mmap (or a trimmed heap top) whose
+  // pages fault in again on every use: 85 000 page faults and a quarter of the model CPU in a 150-trial
+  // study. Served from the heap and kept there, they are reused; the heap stays at its peak (tens of MB).
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 128 << 20);
   using cpgmatch::service::on_signal;
   CLI::App app{"cpgmatch-optimizer: the central optimizer service (studies, candidates, reports over DDS)"};
   int domain = -1;
@@ -213,6 +257,7 @@ int main(int argc, char** argv) {
   bool full_durability = false, localhost_only = false;
   double worker_timeout_s = 2.5;
   int model_threads = service::default_model_threads();
+  int acquisition_threads = std::min(service::default_model_threads(), 2);
   std::string log_level = "info";
   app.add_option("--domain", domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
   app.add_option("--store", store, "SQLite study store; created if missing, resumed if present")->capture_default_str();
@@ -221,6 +266,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--model-threads", model_threads,
                  "threads for GP fits and acquisition optimisation (a study's model work runs on one at a time)")
+      ->capture_default_str();
+  app.add_option("--acquisition-threads", acquisition_threads,
+                 "threads one model job uses for its acquisition search (the same proposals for any number)")
       ->capture_default_str();
   app.add_flag("--localhost-only", localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   app.add_option("--log-level", log_level, "log level")
@@ -246,6 +294,6 @@ int main(int argc, char** argv) {
     runtime::export_config_dir();
     runtime::apply_dds_flags(dds_flags);
     return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
-                        worker_timeout_s, localhost_only, model_threads);
+                        worker_timeout_s, localhost_only, model_threads, acquisition_threads);
   });
 }

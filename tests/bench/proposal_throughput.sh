@@ -13,8 +13,11 @@
 #   bound         slots / rollout time: what a service with free proposals would reach
 #   loop p50/p99/max   sample arrival (DDS listener) to handled, over the run (the optimizer's own count)
 #   tick p99      duration of the event loop's tick (issuing, timers, applying model results)
+#   opt RSS MB    the optimizer's resident memory at the end
+#   opt CPU ms/result   the optimizer process's CPU time (user + system, /proc) per result: what the
+#                 service costs, much less sensitive than the rates to what else runs on the machine
 #
-# Usage: tests/bench/proposal_throughput.sh [build-dir] [ROWS...]
+# Usage: [OPTIMIZER_FLAGS=...] [BENCH_DOMAIN=70] tests/bench/proposal_throughput.sh [build-dir] [ROWS...]
 #   a row is STUDIES:WORKERS:SLOTS:DELAY_MS:THREADS; default rows: the targets and a growth table.
 # Targets (issue 9): one study, 64 slots of 0.4 s: >= 160 proposals/s; 20 studies: >= 200 results/s;
 # loop p99 <= 20 ms.
@@ -39,7 +42,7 @@ run_row() {  # run_row STUDIES WORKERS SLOTS DELAY_MS THREADS
   local store="$work/$tag.db" log="$work/$tag.opt.log"
   ((++domain))
   "$bin/cpgmatch-optimizer" --domain "$domain" --store "$store" --localhost-only --model-threads "$threads" \
-    --log-level info 2>"$log" &
+    --log-level info ${OPTIMIZER_FLAGS:-} 2>"$log" &
   local opt=$!; pids+=("$opt")
   start_fake_workers "$domain" "$workers" "$slots" "$delay"
   local ws=("${WORKER_PIDS[@]}")
@@ -56,6 +59,10 @@ run_row() {  # run_row STUDIES WORKERS SLOTS DELAY_MS THREADS
   until [[ $(sqlite3 "$store" "select count(*) from trials where status = 'done'" 2>/dev/null || echo 0) -ge $total ]]; do
     sleep 0.5
   done
+  local stat cpu rss
+  rss=$(awk '/^VmRSS/ { printf "%.0f", $2 / 1024 }' "/proc/$opt/status")
+  stat=$(cut -d' ' -f14,15 "/proc/$opt/stat")  # utime stime, in clock ticks
+  cpu=$(awk -v t="$(getconf CLK_TCK)" '{ printf "%.2f", ($1 + $2) / t }' <<<"$stat")
   kill "${ws[@]}"; wait "${ws[@]}" 2>/dev/null || true
   kill "$opt"; wait "$opt" 2>/dev/null || true
   local loop tick
@@ -65,7 +72,7 @@ run_row() {  # run_row STUDIES WORKERS SLOTS DELAY_MS THREADS
   sqlite3 -separator ' ' "$store" "select study_id, trial_id, issued_at, reported_at from trials where status = 'done'" |
     python3 -c '
 import sys, collections
-studies, workers, slots, delay, threads, loop, tick = sys.argv[1:8]
+studies, workers, slots, delay, threads, loop, tick, cpu, rss = sys.argv[1:10]
 rows = [l.split() for l in sys.stdin]
 by = collections.defaultdict(list)
 for s, t, i, r in rows: by[s].append((int(t), float(i), float(r)))
@@ -81,12 +88,12 @@ for s, ts in by.items():
 gp = gp_n / (gp_t1 - gp_t0) if gp_t1 > gp_t0 else float("nan")
 bound = int(workers) * int(slots) / (int(delay) / 1000)
 p50, p99, mx = (loop.split() + ["?", "?", "?"])[:3]
-print(f"| {studies:>7} | {workers:>2} x {slots:<3} | {int(delay)/1000:.1f} s | {threads:>7} | {len(rows):>7} | {last_report-first_issue:6.1f} | {rate:9.1f} | {gp:10.1f} | {bound:5.0f} | {p50:>8} | {p99:>8} | {mx:>8} | {tick:>8} |")
-' "$studies" "$workers" "$slots" "$delay" "$threads" "${loop:-? ? ?}" "${tick:-?}"
+print(f"| {studies:>7} | {workers:>2} x {slots:<3} | {int(delay)/1000:.1f} s | {threads:>7} | {len(rows):>7} | {last_report-first_issue:6.1f} | {rate:9.1f} | {gp:10.1f} | {bound:5.0f} | {p50:>8} | {p99:>8} | {mx:>8} | {tick:>8} | {rss:>6} | {1000 * float(cpu) / len(rows):7.1f} |")
+' "$studies" "$workers" "$slots" "$delay" "$threads" "${loop:-? ? ?}" "${tick:-?}" "$cpu" "$rss"
 }
 
-echo "| studies | workers x slots | rollout | model threads | results | wall s | results/s | GP props/s | bound | loop p50 ms | loop p99 ms | loop max ms | tick p99 ms |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| studies | workers x slots | rollout | model threads | results | wall s | results/s | GP props/s | bound | loop p50 ms | loop p99 ms | loop max ms | tick p99 ms | opt RSS MB | opt CPU ms/result |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for row in "${rows[@]}"; do
   IFS=: read -r s w sl d t <<<"$row"
   run_row "$s" "$w" "$sl" "$d" "$t"

@@ -50,12 +50,14 @@ class CoordinatorTest : public ::testing::Test {
     coordinator_.reset();
     store_ = std::make_unique<study::StudyStore>(path_);
     out_ = RecordingOutbox{};
+    deferred_ = std::make_unique<DeferredOutbox>(out_);
     CoordinatorOptions options;
     options.wall_clock_s = [this] { return wall_; };
     options.model_threads = model_threads_;
     options.model_job_hook = model_job_hook_;
     options.require_authenticated_workers = require_identity_;
-    coordinator_ = std::make_unique<Coordinator>(*store_, out_, options, [](const std::string&) {},
+    coordinator_ = std::make_unique<Coordinator>(*store_, defer_ ? static_cast<Outbox&>(*deferred_) : out_, options,
+                                                 [](const std::string&) {},
                                                  [this](const std::string& m) { warnings_.push_back(m); });
   }
   int submit(int budget, int initial) {
@@ -170,6 +172,8 @@ class CoordinatorTest : public ::testing::Test {
   std::string path_;
   std::unique_ptr<study::StudyStore> store_;
   RecordingOutbox out_;
+  std::unique_ptr<DeferredOutbox> deferred_;  // between the coordinator and out_ when defer_ (the service's setup)
+  bool defer_ = false;
   std::unique_ptr<Coordinator> coordinator_;
   std::vector<std::string> warnings_;
   std::size_t answered_ = 0;
@@ -911,6 +915,74 @@ TEST_F(CoordinatorTest, SeveralStudiesShareTheWorkersAndAllFinish) {
   EXPECT_EQ(store_->load(first)->state, "done");
   EXPECT_EQ(store_->load(second)->state, "done");
   EXPECT_EQ(out_.trials.size(), 12u);
+}
+
+// Done trials as another connection sees them (what a restarted optimizer would find).
+int done_trials_seen_from_outside(const std::string& path) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* st = nullptr;
+  sqlite3_prepare_v2(db, "SELECT count(*) FROM trials WHERE status = 'done'", -1, &st, nullptr);
+  int n = -1;
+  if (sqlite3_step(st) == SQLITE_ROW) n = sqlite3_column_int(st, 0);
+  sqlite3_finalize(st);
+  sqlite3_close(db);
+  return n;
+}
+
+TEST_F(CoordinatorTest, ABurstOfReportsCommitsAtomicallyAndIsAcknowledgedOnlyAfterItsCommit) {
+  defer_ = true;
+  open();
+  const int id = submit(12, 12);
+  worker("a", 4);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 4u);
+  {
+    // The service's loop: the burst and the tick in one transaction, what they publish held. No commit:
+    // the process dies (kill -9) before it.
+    study::StudyStore::Batch batch(*store_);
+    deferred_->hold();
+    answer_all();
+    coordinator_->tick(now_ += 0.1);  // issues 4 more (store first, inside the batch: a savepoint)
+    EXPECT_TRUE(out_.retired.empty()) << "a report was acknowledged before its commit";
+    EXPECT_TRUE(out_.trials.empty());
+    EXPECT_EQ(out_.candidates.size(), 4u) << "a candidate was published before its commit";
+    EXPECT_GT(deferred_->held(), 8u);
+    EXPECT_EQ(done_trials_seen_from_outside(path_), 0);
+    deferred_->discard();
+  }
+  EXPECT_EQ(done_trials_seen_from_outside(path_), 0);
+  open();  // the restart: none of the burst happened, the 4 candidates are still out
+  coordinator_->resume_from_store(now_);
+  auto stored = store_->load(id);
+  ASSERT_TRUE(stored);
+  EXPECT_EQ(stored->trials.size(), 4u);
+  for (const auto& t : stored->trials) EXPECT_EQ(t.status, study::TrialStatus::kInFlight);
+
+  // The same burst, committed: all of it at once, then published.
+  worker("a", 4);
+  out_ = RecordingOutbox{};
+  answered_ = 0;
+  coordinator_->tick(now_ += 0.1);  // re-issues the 4
+  ASSERT_EQ(out_.candidates.size(), 4u);
+  {
+    study::StudyStore::Batch batch(*store_);
+    deferred_->hold();
+    answer_all();
+    EXPECT_TRUE(out_.retired.empty());
+    batch.commit();
+    EXPECT_EQ(done_trials_seen_from_outside(path_), 4);
+    deferred_->release();
+  }
+  EXPECT_EQ(out_.retired.size(), 4u);
+  EXPECT_EQ(out_.trials.size(), 4u);
+  EXPECT_THROW(
+      {
+        study::StudyStore::Batch a(*store_);
+        study::StudyStore::Batch b(*store_);
+      },
+      std::logic_error);
+  EXPECT_FALSE(store_->in_batch());
 }
 
 std::map<int, std::map<std::string, double>> two_worker_study(CoordinatorTest& t, int lockstep, bool newest_first,

@@ -41,12 +41,31 @@ TEST(GaussianProcess, PosteriorMatchesHandComputedTwoPointCase) {
   EXPECT_NEAR(p.std, std::sqrt(var), 1e-9);
 }
 
+TEST(GaussianProcess, TheInverseFromTheCholeskyFactorIsTheInverse) {
+  // Sizes below, at and across the 32-column blocks.
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int n : {1, 7, 32, 33, 100}) {
+    Eigen::MatrixXd A(n, n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) A(i, j) = g(rng);
+    Eigen::MatrixXd K = A * A.transpose() + n * Eigen::MatrixXd::Identity(n, n);
+    Eigen::LLT<Eigen::MatrixXd> llt(K);
+    const Eigen::MatrixXd L = llt.matrixL();
+    const Eigen::MatrixXd Kinv = inverse_from_cholesky(L);
+    const Eigen::MatrixXd reference = llt.solve(Eigen::MatrixXd::Identity(n, n));
+    EXPECT_LT((Kinv - reference).cwiseAbs().maxCoeff(), 1e-12 * reference.cwiseAbs().maxCoeff()) << "n = " << n;
+    EXPECT_EQ(Kinv, Kinv.transpose()) << "n = " << n;
+  }
+}
+
 TEST(GaussianProcess, MarginalLikelihoodGradientMatchesFiniteDifferences) {
+  for (int n : {12, 90}) {  // 90: several blocks of the inverse
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  Eigen::MatrixXd X(12, 3);
-  Eigen::VectorXd y(12);
-  for (int i = 0; i < 12; ++i) {
+  Eigen::MatrixXd X(n, 3);
+  Eigen::VectorXd y(n);
+  for (int i = 0; i < n; ++i) {
     for (int j = 0; j < 3; ++j) X(i, j) = u(rng);
     y[i] = std::sin(3 * X(i, 0)) + X(i, 1) * X(i, 2);
   }
@@ -62,7 +81,8 @@ TEST(GaussianProcess, MarginalLikelihoodGradientMatchesFiniteDifferences) {
     tp[i] += h;
     tm[i] -= h;
     const double fd = (gp.log_marginal_likelihood(tp, nullptr) - gp.log_marginal_likelihood(tm, nullptr)) / (2 * h);
-    EXPECT_NEAR(grad[i], fd, 1e-4 * std::max(1.0, std::abs(fd))) << "theta[" << i << "]";
+    EXPECT_NEAR(grad[i], fd, 1e-4 * std::max(1.0, std::abs(fd))) << "n = " << n << ", theta[" << i << "]";
+  }
   }
 }
 
@@ -129,6 +149,89 @@ TEST(GaussianProcess, BatchPredictionEqualsSinglePrediction) {
     EXPECT_NEAR(mean[j], p.mean, 1e-9);
     EXPECT_NEAR(std[j], p.std, 1e-9 + 1e-4 * p.std);  // round-off in 1 - k^T K^-1 k near data
   }
+}
+
+TEST(GaussianProcess, AppendingPointsToTheFactorEqualsARefitOnTheExtendedData) {
+  // A fitted 6-D model of 150 points, then the fake results of a batch: 60 pending points at once, then
+  // one at a time (what ask() does); each step against refit_fixed() on the same data.
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int d = 6, n = 150;
+  Eigen::MatrixXd X(n, d);
+  Eigen::VectorXd y(n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < d; ++j) X(i, j) = unit(rng);
+    y[i] = std::log(0.1 + (X.row(i).array() - 0.4).square().sum()) + 0.01 * unit(rng);
+  }
+  GaussianProcess grown;
+  grown.fit(X, y, /*optimise=*/true, rng);
+  ASSERT_EQ(grown.jitter(), 0.0);
+  GaussianProcess refit = grown;
+  Eigen::MatrixXd Xall = X;
+  Eigen::VectorXd yall = y;
+  Eigen::MatrixXd probes(d, 50);
+  for (int c = 0; c < probes.cols(); ++c)
+    for (int j = 0; j < d; ++j) probes(j, c) = unit(rng);
+  for (int batch : {60, 1, 1, 1, 5}) {
+    Eigen::MatrixXd U(batch, d);
+    Eigen::VectorXd lies(batch);
+    for (int i = 0; i < batch; ++i) {
+      for (int j = 0; j < d; ++j) U(i, j) = unit(rng);
+      lies[i] = grown.predict(U.row(i).transpose()).mean;  // the kriging believer's lie
+    }
+    grown.append_fixed(U, lies);
+    Xall.conservativeResize(Xall.rows() + batch, Eigen::NoChange);
+    Xall.bottomRows(batch) = U;
+    yall.conservativeResize(yall.size() + batch);
+    yall.tail(batch) = lies;
+    refit.refit_fixed(Xall, yall);
+    ASSERT_EQ(grown.num_points(), refit.num_points());
+    Eigen::VectorXd m1, s1, m2, s2;
+    grown.predict_many(probes, &m1, &s1);
+    refit.predict_many(probes, &m2, &s2);
+    for (int c = 0; c < probes.cols(); ++c) {
+      EXPECT_NEAR(m1[c], m2[c], 1e-9) << "batch " << batch << " probe " << c;
+      EXPECT_NEAR(s1[c], s2[c], 1e-9) << "batch " << batch << " probe " << c;
+      Eigen::VectorXd dm1, ds1, dm2, ds2;
+      const Prediction p1 = grown.predict_with_gradient(probes.col(c), &dm1, &ds1);
+      const Prediction p2 = refit.predict_with_gradient(probes.col(c), &dm2, &ds2);
+      EXPECT_NEAR(p1.std, p2.std, 1e-9);
+      EXPECT_LT((dm1 - dm2).lpNorm<Eigen::Infinity>(), 1e-9);
+      EXPECT_LT((ds1 - ds2).lpNorm<Eigen::Infinity>(), 1e-9);
+    }
+  }
+  EXPECT_EQ(grown.num_points(), n + 68);
+}
+
+TEST(GaussianProcess, AppendingADuplicatePointFallsBackToAJitteredRefit) {
+  // A point already in a noiseless model: the extended factor is not positive definite, and the result is
+  // refit_fixed()'s (jitter added), never NaN.
+  Eigen::MatrixXd X(3, 1);
+  X << 0.1, 0.5, 0.9;
+  Eigen::VectorXd y(3);
+  y << 1.0, 0.0, 2.0;
+  GpHyperparameters h;
+  h.log_length_scales = Eigen::VectorXd::Constant(1, std::log(0.3));
+  h.log_noise = std::log(1e-300);
+  GaussianProcess grown;
+  std::mt19937_64 rng(0);
+  grown.fit(X, y, false, rng, &h);
+  GaussianProcess refit = grown;
+  Eigen::MatrixXd U(1, 1);
+  U << 0.5;
+  Eigen::VectorXd v(1);
+  v << 0.0;
+  grown.append_fixed(U, v);
+  Eigen::MatrixXd Xall(4, 1);
+  Xall << X, U;
+  Eigen::VectorXd yall(4);
+  yall << y, v;
+  refit.refit_fixed(Xall, yall);
+  EXPECT_EQ(grown.jitter(), refit.jitter());
+  const Prediction a = grown.predict(Eigen::VectorXd::Constant(1, 0.3)), b = refit.predict(Eigen::VectorXd::Constant(1, 0.3));
+  EXPECT_TRUE(std::isfinite(a.mean) && std::isfinite(a.std));
+  EXPECT_NEAR(a.mean, b.mean, 1e-12);
+  EXPECT_NEAR(a.std, b.std, 1e-12);
 }
 
 }  // namespace

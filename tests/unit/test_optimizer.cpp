@@ -194,6 +194,40 @@ TEST(Optimizer, SameSeedSameSequenceDifferentSeedDifferentSequence) {
   EXPECT_NE(a[0], c[0]);
 }
 
+TEST(Optimizer, TheAcquisitionSearchsThreadsDoNotChangeWhatIsProposed) {
+  // Batches with pending points (the service's asks) and sequential tells, on 1, 2 and 3 threads: the
+  // same points to the last bit.
+  const TestFunction tf = test_function("hartmann6");
+  auto run = [&](int threads) {
+    OptimizerOptions o;
+    o.initial_points = 8;
+    o.seed = 11;
+    BayesianOptimizer opt(tf.space, o);
+    opt.set_threads(threads);
+    std::vector<Eigen::VectorXd> xs, pending = opt.ask(8);
+    for (int round = 0; round < 6; ++round) {
+      std::vector<Observation> done;
+      for (int i = 0; i < 3; ++i) {
+        done.push_back({pending.front(), tf.f(pending.front()), false});
+        pending.erase(pending.begin());
+      }
+      opt.tell_batch(done);
+      for (const auto& x : opt.ask(3, pending)) {
+        xs.push_back(x);
+        pending.push_back(x);
+      }
+    }
+    xs.push_back(opt.ask(1).front());  // no pending point: the proposal of the last tell
+    return xs;
+  };
+  const auto one = run(1), two = run(2), three = run(3);
+  ASSERT_EQ(one.size(), 19u);
+  for (std::size_t i = 0; i < one.size(); ++i) {
+    EXPECT_EQ(one[i], two[i]) << i;
+    EXPECT_EQ(one[i], three[i]) << i;
+  }
+}
+
 TEST(Optimizer, FindsTheMinimumOfAOneDimensionalQuadraticIn20Evaluations) {
   const TestFunction tf = test_function("quadratic1d");
   OptimizerOptions o;

@@ -75,6 +75,18 @@ bo::Observation stored_observation(const study::StoredTrial& t) {
 
 }  // namespace
 
+void DeferredOutbox::release() {
+  holding_ = false;
+  auto held = std::move(held_);
+  held_.clear();
+  for (auto& send : held) send(target_);
+}
+
+void DeferredOutbox::discard() {
+  holding_ = false;
+  held_.clear();
+}
+
 Coordinator::Coordinator(study::StudyStore& store, Outbox& outbox, CoordinatorOptions options, LogFn log_info,
                          LogFn log_warning)
     : store_(store),
@@ -738,6 +750,7 @@ void Coordinator::start_lockstep_model_job(Study& s, int ask) {
   s.untold.erase(std::remove_if(s.untold.begin(), s.untold.end(),
                                 [&](const auto& kv) { return kv.first < told0 + tells_count; }),
                  s.untold.end());
+  use_idle_model_threads(s);
   s.model_busy = true;
   s.asking = ask;
   const int id = s.id;
@@ -779,6 +792,7 @@ void Coordinator::start_model_job(Study& s, int ask) {
   std::vector<Eigen::VectorXd> pending;  // points being evaluated or about to be: the liar's lies
   for (const auto& [trial_id, f] : s.in_flight) pending.push_back(f.x);
   pending.insert(pending.end(), s.proposed.begin(), s.proposed.end());
+  use_idle_model_threads(s);
   s.model_busy = true;
   s.asking = ask;
   const int id = s.id;
@@ -800,6 +814,15 @@ void Coordinator::start_model_job(Study& s, int ask) {
     return model_job_result(id, ask, std::move(fitted), std::move(points), error);
   };
   models_.submit(static_cast<std::uint64_t>(id), std::move(work));
+}
+
+void Coordinator::use_idle_model_threads(Study& s) {
+  // A job's acquisition search spreads over more threads only when fewer studies have jobs than there are
+  // model threads (one study on two cores, say); otherwise the other studies' jobs fill the cores anyway,
+  // and helper threads would only compete with them. Safe here: no job of this study is running.
+  const int busy = static_cast<int>(std::count_if(studies_.begin(), studies_.end(),
+                                                  [](const auto& kv) { return kv.second.model_busy; }));
+  s.optimizer->set_threads(busy + 1 < std::max(options_.model_threads, 1) ? options_.acquisition_threads : 1);
 }
 
 int Coordinator::apply_model_results() { return models_.run_finished(); }

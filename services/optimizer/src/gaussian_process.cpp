@@ -12,9 +12,31 @@ namespace {
 
 const double kSqrt5 = std::sqrt(5.0);
 
-double matern52(double r) { return (1.0 + kSqrt5 * r + 5.0 / 3.0 * r * r) * std::exp(-kSqrt5 * r); }
 
 }  // namespace
+
+Eigen::MatrixXd inverse_from_cholesky(const Eigen::MatrixXd& L) {
+  // By column blocks of width b: L^-1 is lower triangular, so block J's columns are zero above row j0 and
+  // need only the trailing factor L[j0:, j0:]; then the lower half of K^-1 = L^-T L^-1, whose entry (i, j),
+  // i >= j, sums L^-1(k, i) L^-1(k, j) over k >= i, so block J's rows i >= j0 need only rows k >= j0.
+  // About n^3/2 multiply-adds instead of 4n^3/3 (full solve against the identity, then a full product).
+  const Eigen::Index n = L.rows();
+  constexpr Eigen::Index kBlock = 32;
+  Eigen::MatrixXd Linv = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index j0 = 0; j0 < n; j0 += kBlock) {
+    const Eigen::Index b = std::min(kBlock, n - j0), m = n - j0;
+    auto block = Linv.block(j0, j0, m, b);
+    block.topRows(b).setIdentity();
+    L.block(j0, j0, m, m).triangularView<Eigen::Lower>().solveInPlace(block);
+  }
+  Eigen::MatrixXd Kinv(n, n);
+  for (Eigen::Index j0 = 0; j0 < n; j0 += kBlock) {
+    const Eigen::Index b = std::min(kBlock, n - j0), m = n - j0;
+    Kinv.block(j0, j0, m, b).noalias() = Linv.block(j0, j0, m, m).transpose() * Linv.block(j0, j0, m, b);
+  }
+  Kinv.triangularView<Eigen::StrictlyUpper>() = Kinv.transpose();
+  return Kinv;
+}
 
 Eigen::VectorXd GpHyperparameters::pack() const {
   Eigen::VectorXd theta(log_length_scales.size() + 2);
@@ -44,7 +66,10 @@ Eigen::MatrixXd GaussianProcess::kernel(const Eigen::MatrixXd& A, const Eigen::M
   Eigen::MatrixXd r2 = (-2.0 * As * Bs.transpose()).colwise() + a2;
   r2.rowwise() += b2.transpose();
   const double amp = std::exp(h.log_amplitude);
-  return r2.unaryExpr([amp](double v) { return amp * matern52(std::sqrt(std::max(v, 0.0))); });
+  // Array expressions, so that sqrt and exp run vectorised (Eigen's SIMD exp, within an ulp or two of
+  // libm's): the kernel of the acquisition search's 1000 candidates is a large share of a proposal.
+  const Eigen::ArrayXXd r = r2.array().max(0.0).sqrt();
+  return (amp * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r.square()) * (-kSqrt5 * r).exp()).matrix();
 }
 
 Eigen::VectorXd GaussianProcess::lower_bounds(int d) const {
@@ -71,18 +96,16 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
   const Eigen::MatrixXd Xs = X_ * inv_l.matrix().asDiagonal();
   // Scaled distances r and exp(-sqrt5 r), once per pair: the kernel and every length-scale gradient use
-  // them (this function is most of a hyperparameter fit, and exp most of its kernel work).
-  Eigen::MatrixXd R(n, n), E(n, n);
+  // them (this function is most of a hyperparameter fit). Per dimension, as whole-matrix array
+  // operations (vectorised; the pairwise differences themselves, not a Gram matrix, so close points keep
+  // their accuracy).
+  Eigen::ArrayXXd R2 = Eigen::ArrayXXd::Zero(n, n);
   for (int b = 0; b < n; ++b) {
-    R(b, b) = 0.0;
-    E(b, b) = 1.0;
-    for (int a = b + 1; a < n; ++a) {
-      const double r = (Xs.row(a) - Xs.row(b)).norm();
-      R(a, b) = R(b, a) = r;
-      E(a, b) = E(b, a) = std::exp(-kSqrt5 * r);
-    }
+    for (int j = 0; j < d; ++j) R2.col(b) += (Xs.col(j).array() - Xs(b, j)).square();
   }
-  const Eigen::MatrixXd Kf = amp * ((1.0 + kSqrt5 * R.array() + 5.0 / 3.0 * R.array().square()) * E.array()).matrix();
+  const Eigen::ArrayXXd R = R2.sqrt();
+  const Eigen::ArrayXXd E = (-kSqrt5 * R).exp();
+  const Eigen::MatrixXd Kf = (amp * (1.0 + kSqrt5 * R + 5.0 / 3.0 * R.square()) * E).matrix();
   Eigen::MatrixXd K = Kf;
   const double noise = std::exp(h.log_noise);
   K.diagonal().array() += noise;
@@ -103,28 +126,18 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   const double lml = -0.5 * y_std_.dot(alpha) - 0.5 * log_det - 0.5 * n * std::log(2.0 * std::numbers::pi);
   if (grad) {
     grad->resize(theta.size());
-    // dLML/dtheta_j = 0.5 * sum(W .* dK/dtheta_j), W = alpha alpha^T - K^-1, with K^-1 = L^-T L^-1: one
-    // triangular solve and a symmetric product instead of two full solves against the identity.
-    Eigen::MatrixXd Linv = Eigen::MatrixXd::Identity(n, n);
-    llt.matrixL().solveInPlace(Linv);
-    Eigen::MatrixXd Kinv = Eigen::MatrixXd::Zero(n, n);
-    Kinv.selfadjointView<Eigen::Lower>().rankUpdate(Linv.transpose());
-    Kinv.triangularView<Eigen::StrictlyUpper>() = Kinv.transpose();
-    const Eigen::MatrixXd W = alpha * alpha.transpose() - Kinv;
+    // dLML/dtheta_j = 0.5 * sum(W .* dK/dtheta_j), W = alpha alpha^T - K^-1, with K^-1 from the Cholesky
+    // factor by triangular blocks (inverse_from_cholesky: about half the work of a full triangular
+    // solve against the identity and a product of full matrices).
+    const Eigen::MatrixXd W = alpha * alpha.transpose() - inverse_from_cholesky(L);
     (*grad)[0] = 0.5 * (W.array() * Kf.array()).sum();
     (*grad)[d + 1] = 0.5 * noise * W.trace();
     // For Matern 5/2: dk/dlog(l_j) = amp * 5/3 (1 + sqrt5 r) exp(-sqrt5 r) * (x_j - x'_j)^2 / l_j^2.
-    const Eigen::MatrixXd common =
-        (amp * 5.0 / 3.0 * (1.0 + kSqrt5 * R.array()) * E.array() * W.array()).matrix();
+    const Eigen::ArrayXXd common = amp * 5.0 / 3.0 * (1.0 + kSqrt5 * R) * E * W.array();
     for (int j = 0; j < d; ++j) {
-      double s = 0.0;
-      for (int b = 0; b < n; ++b) {
-        for (int a = b + 1; a < n; ++a) {
-          const double diff = Xs(a, j) - Xs(b, j);
-          s += common(a, b) * diff * diff;
-        }
-      }
-      (*grad)[1 + j] = s;  // 0.5 * 2 * (lower triangle); the diagonal has zero distance
+      double sum = 0.0;
+      for (int b = 0; b < n; ++b) sum += (common.col(b) * (Xs.col(j).array() - Xs(b, j)).square()).sum();
+      (*grad)[1 + j] = 0.5 * sum;  // symmetric; zero on the diagonal
     }
   }
   return lml;
@@ -203,19 +216,61 @@ void GaussianProcess::refit_fixed(const Eigen::MatrixXd& X, const Eigen::VectorX
   factorise();
 }
 
+void GaussianProcess::append_fixed(const Eigen::MatrixXd& U, const Eigen::VectorXd& y) {
+  const int m = static_cast<int>(U.rows());
+  if (m == 0) return;
+  const int n = n_;
+  Eigen::MatrixXd X(n + m, X_.cols());
+  X << X_, U;
+  Eigen::VectorXd y_std(n + m);
+  y_std << y_std_, (y.array() - y_mean_) / y_scale_;  // what refit_fixed() computes from the same targets
+  auto refactorise = [&] {
+    X_ = std::move(X);
+    n_ = n + m;
+    y_std_ = std::move(y_std);
+    factorise();
+  };
+  if (n == 0) return refactorise();
+  // [K11 K12; K21 K22] = [L 0; B^T C][L^T B; 0 C^T]: B = L^-1 K12, C C^T = K22 - B^T B.
+  const Eigen::MatrixXd B = L_.triangularView<Eigen::Lower>().solve(kernel(X_, U, hyper_));
+  Eigen::MatrixXd S = kernel(U, U, hyper_);
+  S.diagonal().array() += std::exp(hyper_.log_noise) + jitter_;
+  S.noalias() -= B.transpose() * B;
+  Eigen::LLT<Eigen::MatrixXd> schur(S);
+  if (schur.info() != Eigen::Success) return refactorise();
+  Eigen::MatrixXd L(n + m, n + m);
+  L.topLeftCorner(n, n) = L_;
+  L.topRightCorner(n, m).setZero();
+  L.bottomLeftCorner(m, n) = B.transpose();
+  L.bottomRightCorner(m, m) = schur.matrixL();
+  L_ = std::move(L);
+  X_ = std::move(X);
+  n_ = n + m;
+  y_std_ = std::move(y_std);
+  alpha_ = solve(y_std_);
+}
+
+Eigen::VectorXd GaussianProcess::solve(const Eigen::VectorXd& b) const {
+  Eigen::VectorXd x = b;
+  L_.triangularView<Eigen::Lower>().solveInPlace(x);
+  L_.transpose().triangularView<Eigen::Upper>().solveInPlace(x);
+  return x;
+}
+
 void GaussianProcess::factorise() {
   Eigen::MatrixXd K = kernel(X_, X_, hyper_);
   K.diagonal().array() += std::exp(hyper_.log_noise);
   jitter_ = 0.0;
-  llt_.compute(K);
+  Eigen::LLT<Eigen::MatrixXd> llt(K);
   double add = 1e-10 * std::max(1.0, K.diagonal().mean());
-  while (llt_.info() != Eigen::Success) {
+  while (llt.info() != Eigen::Success) {
     K.diagonal().array() += add;
     jitter_ += add;
     add *= 10.0;
-    llt_.compute(K);
+    llt.compute(K);
   }
-  alpha_ = llt_.solve(y_std_);
+  L_ = llt.matrixL();
+  alpha_ = solve(y_std_);
 }
 
 Prediction GaussianProcess::predict(const Eigen::VectorXd& x) const {
@@ -238,7 +293,7 @@ Prediction GaussianProcess::predict_with_gradient(const Eigen::VectorXd& x, Eige
   }
   Prediction p;
   const double mean_std = k.dot(alpha_);
-  const Eigen::VectorXd Kinv_k = llt_.solve(k);
+  const Eigen::VectorXd Kinv_k = solve(k);
   const double var = std::max(amp - k.dot(Kinv_k), 1e-12 * amp);
   p.mean = y_mean_ + y_scale_ * mean_std;
   p.std = y_scale_ * std::sqrt(var);
@@ -254,7 +309,7 @@ void GaussianProcess::predict_many(const Eigen::MatrixXd& C, Eigen::VectorXd* me
   const Eigen::MatrixXd Kc = kernel(X_, C.transpose(), hyper_);  // n x m
   const double amp = std::exp(hyper_.log_amplitude);
   *mean = (Kc.transpose() * alpha_).array() * y_scale_ + y_mean_;
-  const Eigen::MatrixXd V = llt_.matrixL().solve(Kc);
+  const Eigen::MatrixXd V = L_.triangularView<Eigen::Lower>().solve(Kc);
   const Eigen::ArrayXd var = (amp - V.colwise().squaredNorm().transpose().array()).max(1e-12 * amp);
   *std = y_scale_ * var.sqrt();
 }

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <future>
 #include <limits>
 #include <numeric>
 
@@ -222,6 +224,37 @@ void BayesianOptimizer::propose(const Dataset& data) {
   }
 }
 
+// Runs task(0..count-1), on `threads` threads (this one included); each task must only write its own
+// results. With one thread, in order on this thread.
+template <typename Task>
+void run_tasks(int count, int threads, const Task& task) {
+  threads = std::clamp(threads, 1, std::max(count, 1));
+  if (threads == 1) {
+    for (int i = 0; i < count; ++i) task(i);
+    return;
+  }
+  std::vector<std::future<void>> helpers;
+  for (int t = 1; t < threads; ++t) {
+    helpers.push_back(std::async(std::launch::async, [&, t] {
+      for (int i = t; i < count; i += threads) task(i);
+    }));
+  }
+  std::exception_ptr error;
+  try {
+    for (int i = 0; i < count; i += threads) task(i);
+  } catch (...) {
+    error = std::current_exception();
+  }
+  for (auto& h : helpers) {
+    try {
+      h.get();
+    } catch (...) {
+      if (!error) error = std::current_exception();
+    }
+  }
+  if (error) std::rethrow_exception(error);
+}
+
 std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std::vector<Acquisition>& acquisitions,
                                                                       double y_best, std::mt19937_64& rng) const {
   const int d = space_.size();
@@ -230,8 +263,19 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std:
   Eigen::MatrixXd C(d, m);
   for (int j = 0; j < m; ++j)
     for (int i = 0; i < d; ++i) C(i, j) = unit(rng);
-  Eigen::VectorXd mean, std;
-  gp_.predict_many(C, &mean, &std);
+  // The candidates' posterior in a fixed number of column blocks, whatever the number of threads that
+  // compute them: the result (to the last bit) does not depend on the threads.
+  constexpr int kCandidateBlocks = 2;
+  Eigen::VectorXd mean(m), std(m);
+  run_tasks(kCandidateBlocks, threads_, [&](int b) {
+    const int first = static_cast<int>(static_cast<long>(m) * b / kCandidateBlocks);
+    const int last = static_cast<int>(static_cast<long>(m) * (b + 1) / kCandidateBlocks);
+    if (last == first) return;
+    Eigen::VectorXd mb, sb;
+    gp_.predict_many(C.middleCols(first, last - first), &mb, &sb);
+    mean.segment(first, last - first) = mb;
+    std.segment(first, last - first) = sb;
+  });
   const Eigen::VectorXd p_safe = fall_.probability_safe_many(C);  // all 1 while there is no fall model
 
   struct Context {
@@ -260,38 +304,60 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std:
     return evaluate_safe_acquisition(a, p.mean, p.std, p_safe_here, fall_level_, y_best, options_.xi, options_.kappa).value;
   };
 
-  std::vector<Eigen::VectorXd> proposals;
-  for (const Acquisition a : acquisitions) {
-    std::vector<double> score(m);
+  // Every acquisition's starting points (its best candidates), then every local refinement, independent
+  // of each other (run in parallel when threads_ > 1), then each acquisition's best, in start order.
+  const int starts = std::min(options_.acquisition_local_starts, m);
+  const int na = static_cast<int>(acquisitions.size());
+  std::vector<std::vector<int>> orders(na);
+  std::vector<std::vector<double>> scores(na);
+  for (int k = 0; k < na; ++k) {
+    const Acquisition a = acquisitions[k];
+    std::vector<double>& score = scores[k];
+    score.resize(m);
     for (int j = 0; j < m; ++j) score[j] = score_at(a, Prediction{mean[j], std[j]}, p_safe[j]);
-    std::vector<int> order(m);
+    std::vector<int>& order = orders[k];
+    order.resize(m);
     std::iota(order.begin(), order.end(), 0);
-    const int starts = std::min(options_.acquisition_local_starts, m);
     std::partial_sort(order.begin(), order.begin() + std::max(starts, 1), order.end(),
                       [&](int l, int r) { return score[l] < score[r]; });
-    Eigen::VectorXd best_x = C.col(order[0]);
-    double best_value = score[order[0]];
+  }
+  struct Refined {
+    Eigen::VectorXd x;
+    double value = 0.0;
+  };
+  std::vector<Refined> refined(static_cast<std::size_t>(na * starts));
+  run_tasks(na * starts, threads_, [&](int task) {
+    const int k = task / starts, s = task % starts;
+    const Acquisition a = acquisitions[k];
     Context ctx{this, a, y_best};
+    nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(d));
+    opt.set_lower_bounds(0.0);
+    opt.set_upper_bounds(1.0);
+    opt.set_min_objective(objective, &ctx);
+    opt.set_maxeval(options_.acquisition_local_evaluations);
+    opt.set_xtol_abs(1e-9);
+    const Eigen::VectorXd start = C.col(orders[k][s]);
+    std::vector<double> x(start.data(), start.data() + d);
+    double value = scores[k][orders[k][s]];
+    try {
+      opt.optimize(x, value);
+    } catch (const std::exception&) {
+      // Roundoff-limited stop: keep whatever point NLopt left in x, re-scored here.
+      const Eigen::Map<const Eigen::VectorXd> u(x.data(), d);
+      value = score_at(a, gp_.predict(u), fall_.probability_safe(u));
+    }
+    refined[static_cast<std::size_t>(task)] = {Eigen::Map<Eigen::VectorXd>(x.data(), d), value};
+  });
+
+  std::vector<Eigen::VectorXd> proposals;
+  for (int k = 0; k < na; ++k) {
+    Eigen::VectorXd best_x = C.col(orders[k][0]);
+    double best_value = scores[k][orders[k][0]];
     for (int s = 0; s < starts; ++s) {
-      nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(d));
-      opt.set_lower_bounds(0.0);
-      opt.set_upper_bounds(1.0);
-      opt.set_min_objective(objective, &ctx);
-      opt.set_maxeval(options_.acquisition_local_evaluations);
-      opt.set_xtol_abs(1e-9);
-      const Eigen::VectorXd start = C.col(order[s]);
-      std::vector<double> x(start.data(), start.data() + d);
-      double value = score[order[s]];
-      try {
-        opt.optimize(x, value);
-      } catch (const std::exception&) {
-        // Roundoff-limited stop: keep whatever point NLopt left in x, re-scored here.
-        const Eigen::Map<const Eigen::VectorXd> u(x.data(), d);
-        value = score_at(a, gp_.predict(u), fall_.probability_safe(u));
-      }
-      if (std::isfinite(value) && value < best_value) {
-        best_value = value;
-        best_x = Eigen::Map<Eigen::VectorXd>(x.data(), d).cwiseMax(0.0).cwiseMin(1.0);
+      const Refined& r = refined[static_cast<std::size_t>(k * starts + s)];
+      if (std::isfinite(r.value) && r.value < best_value) {
+        best_value = r.value;
+        best_x = r.x.cwiseMax(0.0).cwiseMin(1.0);
       }
     }
     proposals.push_back(best_x);
@@ -351,10 +417,12 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vect
   };
   for (const auto& p : busy) append(space_.to_unit(p));
 
-  // The fitted model stays the reference for the hedge; lies go into a working copy.
+  // The fitted model stays the reference for the hedge; lies go into a working copy, whose Cholesky factor
+  // is extended by each batch of lies (GaussianProcess::append_fixed) rather than recomputed.
   const GaussianProcess fitted = gp_;
   const bool lies_present = !busy.empty();
-  if (lies_present) gp_.refit_fixed(data.X, data.y);
+  const int nb = static_cast<int>(busy.size());
+  if (lies_present) gp_.append_fixed(data.X.bottomRows(nb), data.y.tail(nb));
 
   std::vector<Eigen::VectorXd> out;
   auto rng = rng_for(issued, kAskPurpose);
@@ -378,7 +446,7 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vect
     }
     out.push_back(space_.from_unit(u));
     append(u);
-    if (k + 1 < n) gp_.refit_fixed(data.X, data.y);
+    if (k + 1 < n) gp_.append_fixed(data.X.bottomRows(1), data.y.tail(1));
   }
   gp_ = fitted;
   return out;

@@ -201,8 +201,32 @@ void StudyStore::set_state(int study_id, const std::string& state, const std::st
   s.bind(1, state).bind(2, message).bind(3, study_id).run();
 }
 
+bool StudyStore::in_batch() const { return sqlite3_get_autocommit(db_) == 0; }
+
+StudyStore::Batch::Batch(StudyStore& store) : store_(store) {
+  if (store_.in_batch()) throw std::logic_error("study store: batches do not nest");
+  store_.exec("BEGIN IMMEDIATE");
+}
+
+StudyStore::Batch::~Batch() {
+  // On a full disk SQLite may have rolled back already; ROLLBACK then fails harmlessly.
+  if (open_) sqlite3_exec(store_.db_, "ROLLBACK", nullptr, nullptr, nullptr);
+}
+
+void StudyStore::Batch::commit() {
+  if (!open_) return;
+  store_.exec("COMMIT");  // on failure the destructor rolls back
+  open_ = false;
+}
+
 void StudyStore::add_trials(int study_id, const std::vector<StoredTrial>& trials) {
-  exec("BEGIN IMMEDIATE");
+  // Inside a Batch: a savepoint, so the trials are all or none within it, committed with it.
+  const bool nested = in_batch();
+  if (nested) {
+    exec("SAVEPOINT add_trials");
+  } else {
+    exec("BEGIN IMMEDIATE");
+  }
   try {
     Statement s(db_, R"(INSERT INTO trials(study_id, trial_id, x_json, status, attempt, worker_id, issued_at, phase)
                         VALUES(?, ?, ?, 'in_flight', ?, ?, ?, ?))");
@@ -211,11 +235,16 @@ void StudyStore::add_trials(int study_id, const std::vector<StoredTrial>& trials
       s.bind(5, t.worker_id).bind(6, t.issued_at_s).bind(7, t.phase).run();
       s.reset();
     }
-    exec("COMMIT");
+    exec(nested ? "RELEASE add_trials" : "COMMIT");
   } catch (...) {
     // On a full disk SQLite may already have rolled the transaction back itself; a second ROLLBACK then
     // fails with "no transaction is active" and would hide the real cause. Try it, keep the first error.
-    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    if (nested) {
+      sqlite3_exec(db_, "ROLLBACK TO add_trials", nullptr, nullptr, nullptr);
+      sqlite3_exec(db_, "RELEASE add_trials", nullptr, nullptr, nullptr);
+    } else {
+      sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    }
     throw;
   }
 }

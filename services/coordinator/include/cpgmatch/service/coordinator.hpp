@@ -62,6 +62,37 @@ class Outbox {
   virtual void reply(const msg::CommandReply& r) = 0;
 };
 
+// Holds what the coordinator publishes while a store batch (study::StudyStore::Batch) is open, and
+// passes it on, in order, once the batch has committed: a report is acknowledged (its candidate retired,
+// its trial record published), a candidate sent or a command answered only after the store holds it, as
+// when every write committed on its own. Not holding: passes everything straight on.
+class DeferredOutbox final : public Outbox {
+ public:
+  explicit DeferredOutbox(Outbox& target) : target_(target) {}
+  void hold() { holding_ = true; }
+  // Sends everything held, in order, and stops holding.
+  void release();
+  // Drops everything held (the batch did not commit) and stops holding.
+  void discard();
+  std::size_t held() const { return held_.size(); }
+
+  void send_candidate(const msg::Candidate& c) override { pass([c](Outbox& o) { o.send_candidate(c); }); }
+  void retire_candidate(const msg::Candidate& c) override { pass([c](Outbox& o) { o.retire_candidate(c); }); }
+  void publish_trial(const msg::TrialRecord& t) override { pass([t](Outbox& o) { o.publish_trial(t); }); }
+  void retire_trial(const msg::TrialRecord& t) override { pass([t](Outbox& o) { o.retire_trial(t); }); }
+  void publish_state(const msg::StudyState& s) override { pass([s](Outbox& o) { o.publish_state(s); }); }
+  void reply(const msg::CommandReply& r) override { pass([r](Outbox& o) { o.reply(r); }); }
+
+ private:
+  void pass(std::function<void(Outbox&)> send) {
+    if (holding_) held_.push_back(std::move(send));
+    else send(target_);
+  }
+  Outbox& target_;
+  bool holding_ = false;
+  std::vector<std::function<void(Outbox&)>> held_;
+};
+
 struct CoordinatorOptions {
   double worker_timeout_s = 2.5;       // no announcement for this long: the worker is gone
   int max_consecutive_failures = 10;   // rollouts that could not run in a row before a study fails
@@ -81,6 +112,10 @@ struct CoordinatorOptions {
   // Threads for model fits and acquisition optimisation (0: run them inline on the event thread, which
   // is deterministic to the call and what unit tests of the bookkeeping use).
   int model_threads = 0;
+  // Threads one model job uses for its acquisition search (bo::BayesianOptimizer::set_threads) while fewer
+  // studies have model jobs than there are model threads (one busy study on two cores: it uses both);
+  // otherwise 1. Proposals do not depend on it.
+  int acquisition_threads = 1;
   // Called from a model thread whenever a model job has finished: wake the event loop so it applies the
   // result at once instead of at its next timer tick. Must only signal.
   std::function<void()> on_model_result;
@@ -243,6 +278,8 @@ class Coordinator {
   // Starts a model job for each study with reports to tell or free slots to ask for (per-tick cap).
   void start_model_jobs(const std::vector<Study*>& order, FreeSlots free);
   void start_model_job(Study& study, int ask);
+  // Sets how many threads the study's next job may use for its acquisition search (idle model threads).
+  void use_idle_model_threads(Study& study);
   static ModelSnapshot snapshot_of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials);
   void issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue);
   // A new report: queued for the study's next model job (which tells it and saves the model state), then accounted.

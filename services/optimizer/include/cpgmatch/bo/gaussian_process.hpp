@@ -37,6 +37,9 @@ struct GpOptions {
   int max_evaluations = 200;  // per local L-BFGS run
 };
 
+// K^-1 from the lower Cholesky factor L of K (K = L L^T), symmetric; for the likelihood's gradient.
+Eigen::MatrixXd inverse_from_cholesky(const Eigen::MatrixXd& L);
+
 struct Prediction {
   double mean = 0.0;
   double std = 0.0;
@@ -54,6 +57,12 @@ class GaussianProcess {
 
   // Refactorises with the current hyperparameters after the data changed (used for constant-liar batches).
   void refit_fixed(const Eigen::MatrixXd& X, const Eigen::VectorXd& y);
+  // Adds the rows of U (m x d) with targets y (m), hyperparameters and standardisation held, as
+  // refit_fixed() on the extended data would, but by extending the Cholesky factor with a bordered block
+  // (O(n^2 m + m^3) instead of O((n+m)^3) and no kernel of the old points with themselves): the working
+  // model of a batch gains one fake result per pending or chosen point. Falls back to refit_fixed() when
+  // the extension is not positive definite (it would need more jitter than the current factor has).
+  void append_fixed(const Eigen::MatrixXd& U, const Eigen::VectorXd& y);
 
   Prediction predict(const Eigen::VectorXd& x) const;
   // Mean and std with their gradients with respect to x.
@@ -73,6 +82,7 @@ class GaussianProcess {
   // Kernel matrix between the rows of A and the rows of B (without noise).
   Eigen::MatrixXd kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h) const;
   void factorise();
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const;  // K^-1 b with the current factor
   Eigen::VectorXd lower_bounds(int d) const;
   Eigen::VectorXd upper_bounds(int d) const;
 
@@ -82,7 +92,7 @@ class GaussianProcess {
   Eigen::VectorXd y_std_;  // standardised targets
   double y_mean_ = 0.0;
   double y_scale_ = 1.0;
-  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::MatrixXd L_;      // lower Cholesky factor of K + (noise + jitter) I (upper part zero)
   Eigen::VectorXd alpha_;  // K^-1 y_std
   double jitter_ = 0.0;
   int n_ = 0;

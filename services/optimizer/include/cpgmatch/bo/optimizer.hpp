@@ -30,6 +30,7 @@
 // (re-imputed at every fit), which pushes the search away from them without inventing a scale.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <random>
@@ -144,6 +145,10 @@ class BayesianOptimizer {
   const GaussianProcess& model() const { return gp_; }
   const FallModel& fall_model() const { return fall_; }
   bool model_ready() const { return gp_.fitted() && !next_proposals_.empty(); }
+  // Threads for the acquisition search (candidate posterior and local refinements, this one included).
+  // Not part of the optimizer's state: what it proposes is the same, to the last bit, for any number.
+  void set_threads(int threads) { threads_ = std::max(1, threads); }
+  int threads() const { return threads_; }
 
   // Replays `observations` through tell(); the result proposes exactly what the original would, at the
   // price of one hyperparameter fit per observation after the initial design.
@@ -197,6 +202,7 @@ class BayesianOptimizer {
   bool have_fall_hyper_ = false;
   double fall_level_ = 0.0;  // mean model-unit cost of the observed falls
   std::vector<Eigen::VectorXd> next_proposals_;  // unit cube; per base acquisition (EI, LCB, PI) or one
+  int threads_ = 1;
 };
 
 }  // namespace cpgmatch::bo

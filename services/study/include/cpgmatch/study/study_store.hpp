@@ -86,6 +86,26 @@ class StudyStore {
   // observations to resume exactly, without refitting the model once per stored result.
   void save_model_state(int study_id, const nlohmann::json& state);
 
+  // A burst of writes in one transaction (the optimizer service: every report and command drained from its
+  // queue at once, then the tick's writes). Commits are what a burst of reports cost on the event thread,
+  // one per report before; grouping them keeps the guarantee as long as nothing is acknowledged before
+  // commit() returns (the service holds its outgoing samples until then). Without commit() the batch
+  // rolls back when destroyed: none of its writes happened. Batches do not nest.
+  class Batch {
+   public:
+    explicit Batch(StudyStore& store);
+    ~Batch();  // rolls back unless committed
+    Batch(const Batch&) = delete;
+    Batch& operator=(const Batch&) = delete;
+    void commit();  // throws StoreWriteError (the batch is then rolled back)
+
+   private:
+    StudyStore& store_;
+    bool open_ = true;
+  };
+  // True while a Batch is open on this store.
+  bool in_batch() const;
+
   // Throws StoreWriteError unless the store can be written now (a read-only file or folder, say): the
   // optimizer checks this before it serves anything. Readers such as `cpgmatch analyze` do not need it.
   void require_writable() const;
