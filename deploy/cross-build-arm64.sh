@@ -35,6 +35,9 @@ cmake -S "$ROOT/deploy/arm64" -B "$OUT" -DCMAKE_BUILD_TYPE=Release \
 nice -n 10 cmake --build "$OUT" -j2 --target cpgmatch-robot-agent robot_tests
 echo "built after $((SECONDS - start)) s"
 file "$OUT/bin/cpgmatch-robot-agent" "$OUT/bin/robot_tests"
+(cd "$OUT" && cpack -G DEB >cpack.log 2>&1) || { cat "$OUT/cpack.log"; exit 1; }
+echo "package: $(ls "$OUT"/cpgmatch-robot-agent_*_arm64.deb)"
+bash "$ROOT/tests/deploy/test_arm64_deb.sh" "$OUT"
 
 # Under qemu-user the CAN layer, the protocols, the robot YAML, the device side and the jitter
 # statistics run. Excluded: the timing tests (PeriodicTimer) and the CanPlant suite, whose tests start

@@ -15,7 +15,13 @@ namespace cpgmatch::worker {
 WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
     : config_(config),
       queue_(queue),
-      participant_(dds::ParticipantConfig{config.domain, config.participant_name, config.localhost_only, {}}),
+      participant_([&] {
+        dds::ParticipantConfig c;
+        c.domain = config.domain;
+        c.name = config.participant_name;
+        c.localhost_only = config.localhost_only;
+        return c;
+      }()),
       reports_(participant_),
       announcements_(participant_),
       candidates_(participant_, "candidates_for_" + config.worker_id, "worker_id = %0", {"'" + config.worker_id + "'"},
