@@ -17,9 +17,11 @@ dpkg-deb -x "$deb" "$WORK/root"
 agent=$WORK/root/usr/bin/cpgmatch-robot-agent
 file "$agent" | grep -q "ARM aarch64" || fail "the packaged agent is not an aarch64 executable: $(file "$agent")"
 for f in usr/share/cpgmatch/configs/robot/morti.yaml usr/share/cpgmatch/configs/rollout.yaml \
-         usr/share/cpgmatch/fastdds/cluster.xml; do
+         usr/share/cpgmatch/fastdds/cluster.xml usr/lib/systemd/system/cpgmatch-robot-agent.service; do
   [[ -e $WORK/root/$f ]] || fail "not in the package: /$f"
 done
+grep -q "^ExecStart=.*exec /usr/bin/cpgmatch-robot-agent " "$WORK/root/usr/lib/systemd/system/cpgmatch-robot-agent.service" ||
+  fail "the packaged unit does not start /usr/bin/cpgmatch-robot-agent"
 depends=$(dpkg-deb -f "$deb" Depends)
 # Each NEEDED library -> the arm64 package that ships it (dpkg -S, or the sysroot's extracted .debs).
 for lib in $(readelf -d "$agent" | sed -n 's/.*Shared library: \[\(.*\)\]/\1/p'); do

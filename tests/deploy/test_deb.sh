@@ -20,7 +20,8 @@ done
 dpkg-deb -x "$deb" "$WORK/root"
 for f in usr/bin/cpgmatch usr/bin/cpgmatch-optimizer usr/bin/cpgmatch-sim-worker usr/share/cpgmatch/configs/model/morti.yaml \
          usr/bin/cpgmatch-robot-agent usr/bin/cpgmatch-robot-emulator usr/share/cpgmatch/configs/robot/morti.yaml \
-         usr/share/cpgmatch/fastdds/cluster.xml usr/lib/systemd/system/cpgmatch-optimizer.service; do
+         usr/share/cpgmatch/fastdds/cluster.xml usr/lib/systemd/system/cpgmatch-optimizer.service \
+         usr/lib/systemd/system/cpgmatch-robot-agent.service; do
   [[ -e $WORK/root/$f ]] || fail "not in the package: /$f"
 done
 grep -q '^ExecStart=/usr/bin/cpgmatch-optimizer ' "$WORK/root/usr/lib/systemd/system/cpgmatch-optimizer.service" ||
