@@ -87,13 +87,16 @@ set -e
 # The robot agent against the emulator, both from the moved prefix with their default model, settings and
 # parameters (the agent's robot description relaxed for this loaded machine, as in tests/robot/).
 sed -e 's/^protocol: mit/emulator_only: true\nprotocol: mit/' -e 's/feedback_timeout_s: 0.010/feedback_timeout_s: 0.5/' \
+    -e 's/max_consecutive_overruns: 5 /max_consecutive_overruns: 100 /' \
   "$PREFIX/share/cpgmatch/configs/robot/morti.yaml" >"$WORK/robot.yaml"
+grep -q "max_consecutive_overruns: 100 " "$WORK/robot.yaml" || fail "the relaxed robot description lost its overrun limit"
 PORT=$(python3 -c 'import socket; s=socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 "$PREFIX/bin/cpgmatch-robot-emulator" --can "udp:127.0.0.1:$PORT" --lockstep >"$WORK/emulator.log" 2>&1 &
 EMU_PID=$!
 sleep 0.3
 out=$("$PREFIX/bin/cpgmatch-robot-agent" --can "udp:127.0.0.1:$PORT" --robot "$WORK/robot.yaml" --lockstep --no-realtime \
-      --run-once --entrain 0.5 --eval 0.5 --json 2>"$WORK/agent.log") || { cat "$WORK/emulator.log" "$WORK/agent.log" >&2; fail "agent rollout from the prefix"; }
+      --run-once --entrain 0.5 --eval 0.5 --json 2>"$WORK/agent.log") ||
+  { cat "$WORK/emulator.log" "$WORK/agent.log" >&2; fail "agent rollout from the prefix: $out"; }
 [[ $out == *'"ok":true'* && $out == *'"loop"'* ]] || fail "agent rollout from the prefix: $out"
 kill -TERM "$EMU_PID"; wait "$EMU_PID" || fail "the installed emulator exited $? after SIGTERM"; EMU_PID=
 
