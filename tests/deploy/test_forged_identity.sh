@@ -21,14 +21,8 @@ KS=$WORK/keystore
 set +e; out=$("$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" --localhost-only --keystore "$KS" --id intruder 2>&1); rc=$?; set -e
 [[ $rc == 2 && $out == *"--id 'intruder'"*"'worker'"* ]] || fail "--id intruder under the worker certificate: exit $rc: $out"
 
-cat >"$WORK/s.yaml" <<YAML
-name: forged
-budget: 16
-initial_points: 16
-seed: 3
-lease_s: 3
-rollout: {entrain_s: 0.5, eval_s: 0.5}
-YAML
+write_study "$WORK/s.yaml" forged 16 16
+echo "lease_s: 3" >>"$WORK/s.yaml"  # a lease that expires within the test
 S=(--domain "$DOMAIN" --localhost-only --keystore "$KS")
 start_optimizer "$WORK/s.db" --keystore "$KS"
 # No --id: under a keystore the worker id is the certificate's CN, "worker".

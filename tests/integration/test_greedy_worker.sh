@@ -6,14 +6,8 @@
 #   BIN=build/bin DOMAIN=61 ROGUE=build/bin/rogue_worker test_greedy_worker.sh
 source "$(dirname "$0")/lib.sh"
 ROGUE=${ROGUE:?ROGUE must point at rogue_worker}
-cat >"$WORK/s.yaml" <<YAML
-name: greedy
-budget: 16
-initial_points: 16
-seed: 3
-lease_s: 3
-rollout: {entrain_s: 0.5, eval_s: 0.5}
-YAML
+write_study "$WORK/s.yaml" greedy 16 16
+echo "lease_s: 3" >>"$WORK/s.yaml"  # a lease that expires within the test
 start_optimizer "$WORK/s.db"
 start_worker honest --slots 2
 "$ROGUE" "$DOMAIN" - - greedy 16 - 120 >"$WORK/rogue.out" 2>"$WORK/rogue.log" &
