@@ -342,6 +342,12 @@ struct OdePlant::Impl {
                            model.biarticular_spring.damping_nm_s_per_rad * deviation_rate;
       dBodyAddTorque(leg.foot, 0, 0, tau_b);
       dBodyAddTorque(leg.femur, 0, 0, -tau_b);
+    }
+  }
+
+  // The stop motors learn the joint angles they limit (PlanarJoint::update_stops) before every solve.
+  void update_joint_stops() {
+    for (const auto& leg : legs) {
       leg.knee.update_stops();
       leg.ankle.update_stops();
     }
@@ -436,6 +442,7 @@ struct OdePlant::Impl {
       shifted = true;
     }
     apply_actuators();
+    update_joint_stops();
     collide();
     belt_travel += belt_speed() * dt;
     dWorldStep(world, dt);
