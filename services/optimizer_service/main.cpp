@@ -123,7 +123,10 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   const bool secure = !dds::selected_enclave().empty();
   options.require_authenticated_workers = secure;
 
-  dds::ParticipantConfig dds_config{domain, "cpgmatch-optimizer", localhost_only};
+  dds::ParticipantConfig dds_config;
+  dds_config.domain = domain;
+  dds_config.name = "cpgmatch-optimizer";
+  dds_config.localhost_only = localhost_only;
   // Two optimizers on one domain would both answer commands and publish colliding study ids: say so loudly.
   dds_config.on_peer_discovered = [domain](const std::string& name) {
     if (name == "cpgmatch-optimizer") {
@@ -165,23 +168,45 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
                coordinator.studies(), model_threads);
 
   LatencyRecorder sample_latency, tick_duration;
+  // Where a sample's latency goes: waiting in the queue for the event thread, then its chunk's handling,
+  // store commit and publishing (DDS writes), each measured per chunk.
+  LatencyRecorder queue_wait, chunk_handling, chunk_commit, chunk_publish, tick_commit, tick_publish;
   auto log_latency = [&] {
     spdlog::info("event loop: sample arrival to handled: {}; tick: {}", sample_latency.summary(), tick_duration.summary());
+    spdlog::info("event loop breakdown: queue wait: {}; chunk handling: {}; commit: {}; publish: {}; tick commit: {}; "
+                 "tick publish: {}",
+                 queue_wait.summary(), chunk_handling.summary(), chunk_commit.summary(), chunk_publish.summary(),
+                 tick_commit.summary(), tick_publish.summary());
   };
   // Each burst of samples drained from the queue is handled in one store transaction, and so is each tick;
   // what they publish is held until that transaction commits (DeferredOutbox), so nothing is acknowledged
   // that the store does not hold, as when each write committed on its own, at one commit per burst.
-  auto in_one_transaction = [&](auto&& body) {
+  struct PhaseTimes {
+    LatencyRecorder* handling = nullptr;
+    LatencyRecorder* commit = nullptr;
+    LatencyRecorder* publish = nullptr;
+  };
+  auto in_one_transaction = [&](auto&& body, PhaseTimes times = {}) {
+    using Clock = std::chrono::steady_clock;
+    auto record = [](LatencyRecorder* r, Clock::time_point since) {
+      if (r != nullptr) r->add(std::chrono::duration<double>(Clock::now() - since).count());
+    };
     study::StudyStore::Batch batch(store);
     outbox.hold();
     try {
+      const auto start = Clock::now();
       body();
+      record(times.handling, start);
+      const auto commit_start = Clock::now();
       batch.commit();
+      record(times.commit, commit_start);
     } catch (...) {
       outbox.discard();  // rolled back: none of it happened
       throw;
     }
+    const auto publish_start = Clock::now();
     outbox.release();
+    record(times.publish, publish_start);
   };
   while (!g_stop) {
     auto events = queue.drain(std::chrono::milliseconds(20));
@@ -193,6 +218,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
       std::size_t last = first;
       in_one_transaction([&] {
         const auto chunk_start = std::chrono::steady_clock::now();
+        queue_wait.add(std::chrono::duration<double>(chunk_start - events[first].arrived).count());
         while (last < events.size() && last - first < kMaxChunkEvents &&
                std::chrono::steady_clock::now() - chunk_start < kMaxChunk) {
           auto& event = events[last++];
@@ -214,7 +240,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
             spdlog::error("event dropped: {}", e.what());
           }
         }
-      });
+      }, PhaseTimes{&chunk_handling, &chunk_commit, &chunk_publish});
       // Handled = committed and its effects published.
       const auto handled = std::chrono::steady_clock::now();
       for (std::size_t i = first; i < last; ++i) {
@@ -225,7 +251,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
       first = last;
     }
     const auto tick_start = std::chrono::steady_clock::now();
-    in_one_transaction([&] { coordinator.tick(monotonic_now_s()); });
+    in_one_transaction([&] { coordinator.tick(monotonic_now_s()); }, PhaseTimes{nullptr, &tick_commit, &tick_publish});
     tick_duration.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - tick_start).count());
     if (g_print_stats) {
       g_print_stats = 0;

@@ -16,6 +16,7 @@
 #   opt RSS MB    the optimizer's resident memory at the end
 #   opt CPU ms/result   the optimizer process's CPU time (user + system, /proc) per result: what the
 #                 service costs, much less sensitive than the rates to what else runs on the machine
+#   workers CPU ms/result   the same for all the fake workers together: DDS only (their rollouts sleep)
 #
 # Usage: [OPTIMIZER_FLAGS=...] [BENCH_DOMAIN=70] tests/bench/proposal_throughput.sh [build-dir] [ROWS...]
 #   a row is STUDIES:WORKERS:SLOTS:DELAY_MS:THREADS; default rows: the targets and a growth table.
@@ -63,16 +64,22 @@ run_row() {  # run_row STUDIES WORKERS SLOTS DELAY_MS THREADS
   rss=$(awk '/^VmRSS/ { printf "%.0f", $2 / 1024 }' "/proc/$opt/status")
   stat=$(cut -d' ' -f14,15 "/proc/$opt/stat")  # utime stime, in clock ticks
   cpu=$(awk -v t="$(getconf CLK_TCK)" '{ printf "%.2f", ($1 + $2) / t }' <<<"$stat")
+  local wcpu=0 w
+  for w in "${ws[@]}"; do
+    wcpu=$(awk -v t="$(getconf CLK_TCK)" -v acc="$wcpu" '{ printf "%.2f", acc + ($14 + $15) / t }' "/proc/$w/stat")
+  done
   kill "${ws[@]}"; wait "${ws[@]}" 2>/dev/null || true
   kill "$opt"; wait "$opt" 2>/dev/null || true
   local loop tick
   loop=$(grep -o 'sample arrival to handled: n [0-9]*, p50 [0-9.]* ms, p99 [0-9.]* ms, max [0-9.]* ms' "$log" | tail -1 |
          sed -E 's/.*p50 ([0-9.]+) ms, p99 ([0-9.]+) ms, max ([0-9.]+) ms/\1 \2 \3/')
   tick=$(grep -o 'tick: n [0-9]*, p50 [0-9.]* ms, p99 [0-9.]* ms' "$log" | tail -1 | sed -E 's/.*p99 ([0-9.]+) ms/\1/')
+  # Where the loop latency goes (queue wait, chunk handling, commit, publish): on stderr, beside the table.
+  grep -o 'event loop breakdown: .*' "$log" | tail -1 | sed "s/^/$tag: /" >&2 || true
   sqlite3 -separator ' ' "$store" "select study_id, trial_id, issued_at, reported_at from trials where status = 'done'" |
     python3 -c '
 import sys, collections
-studies, workers, slots, delay, threads, loop, tick, cpu, rss = sys.argv[1:10]
+studies, workers, slots, delay, threads, loop, tick, cpu, rss, wcpu = sys.argv[1:11]
 rows = [l.split() for l in sys.stdin]
 by = collections.defaultdict(list)
 for s, t, i, r in rows: by[s].append((int(t), float(i), float(r)))
@@ -88,12 +95,12 @@ for s, ts in by.items():
 gp = gp_n / (gp_t1 - gp_t0) if gp_t1 > gp_t0 else float("nan")
 bound = int(workers) * int(slots) / (int(delay) / 1000)
 p50, p99, mx = (loop.split() + ["?", "?", "?"])[:3]
-print(f"| {studies:>7} | {workers:>2} x {slots:<3} | {int(delay)/1000:.1f} s | {threads:>7} | {len(rows):>7} | {last_report-first_issue:6.1f} | {rate:9.1f} | {gp:10.1f} | {bound:5.0f} | {p50:>8} | {p99:>8} | {mx:>8} | {tick:>8} | {rss:>6} | {1000 * float(cpu) / len(rows):7.1f} |")
-' "$studies" "$workers" "$slots" "$delay" "$threads" "${loop:-? ? ?}" "${tick:-?}" "$cpu" "$rss"
+print(f"| {studies:>7} | {workers:>2} x {slots:<3} | {int(delay)/1000:.1f} s | {threads:>7} | {len(rows):>7} | {last_report-first_issue:6.1f} | {rate:9.1f} | {gp:10.1f} | {bound:5.0f} | {p50:>8} | {p99:>8} | {mx:>8} | {tick:>8} | {rss:>6} | {1000 * float(cpu) / len(rows):7.1f} | {1000 * float(wcpu) / len(rows):7.1f} |")
+' "$studies" "$workers" "$slots" "$delay" "$threads" "${loop:-? ? ?}" "${tick:-?}" "$cpu" "$rss" "$wcpu"
 }
 
-echo "| studies | workers x slots | rollout | model threads | results | wall s | results/s | GP props/s | bound | loop p50 ms | loop p99 ms | loop max ms | tick p99 ms | opt RSS MB | opt CPU ms/result |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| studies | workers x slots | rollout | model threads | results | wall s | results/s | GP props/s | bound | loop p50 ms | loop p99 ms | loop max ms | tick p99 ms | opt RSS MB | opt CPU ms/result | workers CPU ms/result |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for row in "${rows[@]}"; do
   IFS=: read -r s w sl d t <<<"$row"
   run_row "$s" "$w" "$sl" "$d" "$t"

@@ -521,6 +521,18 @@ Coordinator::FreeSlots Coordinator::issue_waiting_work(const std::vector<Study*>
     int free() const { return static_cast<int>(slots.size() - next); }
   };
   Slots sim{free_slots(false)}, hw{free_slots(true)};
+  // At most max_issues_per_tick slots are offered this tick: the DDS writes of a full fill would stall
+  // the event loop (CoordinatorOptions). free_slots() alternates workers, so the cut is fair to them.
+  // The slots cut off still count as free for the model jobs started below (their points are issued by
+  // the next ticks).
+  const int cut_sim = static_cast<int>(sim.slots.size()), cut_hw = static_cast<int>(hw.slots.size());
+  int budget = std::max(0, issues_left_this_tick_);
+  for (Slots* kind : {&sim, &hw}) {
+    if (static_cast<int>(kind->slots.size()) > budget) kind->slots.resize(static_cast<std::size_t>(budget));
+    budget -= static_cast<int>(kind->slots.size());
+  }
+  const int beyond_sim = cut_sim - static_cast<int>(sim.slots.size());
+  const int beyond_hw = cut_hw - static_cast<int>(hw.slots.size());
   for (Study* s : order) {
     if (s->state != "running") continue;
     Slots& explore = explores_on_hardware(*s) ? hw : sim;
@@ -533,7 +545,8 @@ Coordinator::FreeSlots Coordinator::issue_waiting_work(const std::vector<Study*>
     }
     issue_proposed(*s, explore.slots, explore.next, now_s);
   }
-  return {sim.free(), hw.free()};
+  issues_left_this_tick_ -= static_cast<int>(sim.next + hw.next);
+  return {sim.free() + beyond_sim, hw.free() + beyond_hw};
 }
 
 int Coordinator::exploring_in_flight(const Study& s) {
@@ -1005,6 +1018,7 @@ void Coordinator::retire_finished(Study& s, double now_s) {
 }
 
 void Coordinator::tick(double now_s) {
+  issues_left_this_tick_ = options_.max_issues_per_tick;
   apply_model_results();
   std::vector<std::string> silent;
   for (const auto& [id, w] : workers_) {

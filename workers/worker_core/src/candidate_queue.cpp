@@ -11,8 +11,8 @@ CandidateQueue::IssueKey CandidateQueue::issue_key(const msg::Candidate& c) {
 }
 
 CandidateQueue::Offer CandidateQueue::offer(const msg::Candidate& c) {
-  // Checked here as well as by the reader's content filter, so that whatever delivers samples, a
-  // worker never runs (and the optimizer never rejects a report for) another worker's candidate.
+  // The worker's reader delivers every candidate on the domain: this is where a worker keeps its own, so
+  // it never runs (and the optimizer never rejects a report for) another worker's candidate.
   if (c.worker_id() != worker_id_) return Offer::kNotOurs;
   std::lock_guard<std::mutex> lock(mutex_);
   if (draining_) return Offer::kDraining;

@@ -24,11 +24,11 @@ WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
       }()),
       reports_(participant_),
       announcements_(participant_),
-      candidates_(participant_, "candidates_for_" + config.worker_id, "worker_id = %0", {"'" + config.worker_id + "'"},
-                  [this](const msg::Candidate& c) { queue_.offer(c); }),
-      acknowledgements_(participant_, {}, [this](const msg::Candidate& key, dds::InstanceGone gone) {
-        if (gone.disposed) acknowledged(key);  // not on a lost optimizer: its successor needs the reports
-      }) {
+      candidates_(
+          participant_, [this](const msg::Candidate& c) { queue_.offer(c); },  // the queue keeps only ours
+          [this](const msg::Candidate& key, dds::InstanceGone gone) {
+            if (gone.disposed) acknowledged(key);  // not on a lost optimizer: its successor needs the reports
+          }) {
   if (config_.on_emergency_stop) {
     stops_ = std::make_unique<dds::Reader<msg::EmergencyStop>>(participant_, config_.on_emergency_stop);
   }

@@ -100,6 +100,11 @@ struct CoordinatorOptions {
   // ticks (every 20 ms) instead of one ask() that blocks the event loop for seconds; heartbeats, reports
   // and commands are served in between.
   int max_new_candidates_per_tick = 32;
+  // Candidates issued (written to DDS) per tick, over all studies, re-issues included. Each write costs
+  // the event thread about a millisecond with 8 workers reading, and a tick that filled 128 fresh slots at
+  // once held every sample that arrived meanwhile for 70-160 ms (tests/bench/proposal_throughput.sh, the
+  // loop breakdown's "tick publish"); the rest of the slots are filled by the next ticks.
+  int max_issues_per_tick = 16;
   // A study's trial records stay on the (transient-local) trials topic while it is open and this long
   // after it ended, for clients following it live (`study run` collects them at the end); then they leave
   // the DDS writer, whose memory would otherwise grow with every trial ever run. The store keeps them.
@@ -312,6 +317,7 @@ class Coordinator {
   std::map<std::pair<std::string, std::uint64_t>, msg::CommandReply> replies_;
   std::deque<std::pair<std::string, std::uint64_t>> reply_order_;
   int round_robin_ = 0;
+  int issues_left_this_tick_ = 0;  // max_issues_per_tick, counted down by every issue_waiting_work() of a tick
   std::uint64_t rejected_ = 0;
   std::uint64_t foreign_reports_ = 0;
   std::set<std::uint64_t> foreign_stores_;  // store ids whose reports were ignored (logged once each)

@@ -31,7 +31,7 @@ class CandidateQueue {
 
   enum class Offer {
     kQueued,     // it will run
-    kNotOurs,    // addressed to another worker (the content filter should already have dropped it)
+    kNotOurs,    // addressed to another worker: every worker reads every candidate (worker_link.hpp)
     kDuplicate,  // the very same issue is queued or running: DDS delivered it twice
     kDraining,   // shutting down: the optimizer re-issues it once this worker has left the domain
   };

@@ -74,10 +74,13 @@ class WorkerLink {
   msg::WorkerAnnouncement last_announcement_;
   std::atomic<bool> accepting_{true};
   // Last: the readers' callbacks use everything above, so they must be created after and destroyed first.
+  // Every candidate on the domain and every dispose (the optimizer's acknowledgement of a report); the
+  // queue keeps only this worker's candidates. Why not a DDS content filter on worker_id: the optimizer
+  // filters nothing on its side (see topics.cpp), so every candidate reaches every worker anyway, and
+  // Fast DDS evaluated the filter through DynamicData and threw an exception for every key-only
+  // dispose: a filtered reader plus the unfiltered one that disposes need cost the workers twice the CPU
+  // of this one reader (tests/bench/proposal_throughput.sh, docs/dds.md).
   dds::Reader<msg::Candidate> candidates_;
-  // The content filter cannot read a dispose (a key-only sample), so disposes come through an unfiltered
-  // reader: the candidates of other workers are only remembered until their dispose.
-  dds::Reader<msg::Candidate> acknowledgements_;
   std::unique_ptr<dds::Reader<msg::EmergencyStop>> stops_;
 };
 
