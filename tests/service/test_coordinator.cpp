@@ -804,7 +804,9 @@ TEST_F(CoordinatorTest, SteppingTheWallClockNeitherDropsWorkersNorFiresLeases) {
   const auto s = store_->load(id);
   ASSERT_TRUE(s);
   for (const auto& t : s->trials) {
-    if (t.status == study::TrialStatus::kDone) EXPECT_DOUBLE_EQ(t.reported_at_s, wall_);  // Unix time in the store
+    if (t.status == study::TrialStatus::kDone) {
+      EXPECT_DOUBLE_EQ(t.reported_at_s, wall_);  // Unix time in the store
+    }
   }
 }
 
@@ -830,6 +832,22 @@ TEST_F(CoordinatorTest, AHugeWorkerIsFilledOverSeveralTicksAndAnotherWorkersTime
   }
   EXPECT_TRUE(small_dropped);
   EXPECT_LE(ticks * 0.02, CoordinatorOptions{}.worker_timeout_s + 0.1);
+}
+
+TEST_F(CoordinatorTest, ALargeFillIsSpreadOverTicksWithoutAskingForMorePointsThanThereAreSlots) {
+  const int id = submit(150, 15);
+  worker("big", 64);
+  // No report comes back: the 64 slots are filled 16 per tick, and the points proposed for them (the 15
+  // random ones, then the model's with lies) never outnumber the slots.
+  for (int tick = 0; tick < 10; ++tick) {
+    worker("big", 64);
+    const std::size_t before = out_.candidates.size();
+    coordinator_->tick(now_ += 0.02);
+    EXPECT_LE(out_.candidates.size() - before, static_cast<std::size_t>(CoordinatorOptions{}.max_issues_per_tick));
+    EXPECT_LE(static_cast<int>(out_.candidates.size()) + coordinator_->points_waiting(id), 64) << "tick " << tick;
+  }
+  EXPECT_EQ(out_.candidates.size(), 64u);
+  EXPECT_EQ(coordinator_->points_waiting(id), 0);
 }
 
 TEST_F(CoordinatorTest, TheStudyStateCarriesTheModelsRecommendation) {

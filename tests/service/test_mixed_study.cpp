@@ -78,7 +78,7 @@ class MixedStudyTest : public ::testing::Test {
   }
   // Keeps both workers alive (as their heartbeats would).
   void heartbeat() {
-    worker("sim", 2, msg::WORKER_SIM);
+    worker("sim", sim_slots_, msg::WORKER_SIM);
     if (hardware_) worker("robot", 1, msg::WORKER_HARDWARE);
   }
   // Answers every candidate not answered yet; sim rollouts cost 1 + trial / 10, hardware ones 4 + ...
@@ -122,6 +122,7 @@ class MixedStudyTest : public ::testing::Test {
   std::uint64_t correlation_ = 0;
   double now_ = 1000.0;
   bool hardware_ = true;
+  int sim_slots_ = 2;
 };
 
 TEST_F(MixedStudyTest, ExplorationGoesToSimulationAndTheValidationSetsToHardwareAroundTheAnswer) {
@@ -157,6 +158,20 @@ TEST_F(MixedStudyTest, ExplorationGoesToSimulationAndTheValidationSetsToHardware
       EXPECT_LE(t->x[d], cfg.space.dimensions()[d].high);
     }
   }
+}
+
+TEST_F(MixedStudyTest, TheValidationReachesTheRobotWhileManySimulationSlotsSitIdle) {
+  // More idle simulation slots than candidates a tick may write (max_issues_per_tick): the cap counts
+  // candidates written, not slots offered, so the hardware sets still go out.
+  sim_slots_ = 3 * CoordinatorOptions{}.max_issues_per_tick;
+  const int id = submit(kMixedStudy);
+  run(20);
+  const auto s = store_->load(id);
+  ASSERT_TRUE(s);
+  EXPECT_EQ(s->state, "done") << s->message;
+  const auto validated = phase(*s, "validation");
+  ASSERT_EQ(validated.size(), 4u);
+  for (const auto* t : validated) EXPECT_EQ(t->worker_id, "robot") << "trial " << t->trial_id;
 }
 
 TEST_F(MixedStudyTest, ValidationSetsAreWithinTheSpreadAndBoundsAndTheSameForTheSameSeed) {

@@ -82,7 +82,7 @@ TEST(ModelPoolTest, AJobsExceptionReachesTheThreadThatRunsCompletionsAndThePoolG
   EXPECT_EQ(pool.outstanding(), 0);
 }
 
-TEST(ModelPoolTest, PoolThreadsAreNamedAndRunNicerThanTheEventThread) {
+TEST(ModelPoolTest, PoolThreadsAreNamedAndRunTenNiceLevelsBelowTheirCreator) {
   const int caller_nice = this_threads_nice();
   ModelPool pool(1);
   int job_nice = 0;

@@ -130,6 +130,11 @@ bool Coordinator::idle() const {
 
 // ---- studies -------------------------------------------------------------------------------------
 
+int Coordinator::points_waiting(int study_id) const {
+  const auto s = studies_.find(study_id);
+  return s == studies_.end() ? 0 : static_cast<int>(s->second.proposed.size());
+}
+
 double Coordinator::wall_now() const {
   if (options_.wall_clock_s) return options_.wall_clock_s();
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -521,18 +526,9 @@ Coordinator::FreeSlots Coordinator::issue_waiting_work(const std::vector<Study*>
     int free() const { return static_cast<int>(slots.size() - next); }
   };
   Slots sim{free_slots(false)}, hw{free_slots(true)};
-  // At most max_issues_per_tick slots are offered this tick: the DDS writes of a full fill would stall
-  // the event loop (CoordinatorOptions). free_slots() alternates workers, so the cut is fair to them.
-  // The slots cut off still count as free for the model jobs started below (their points are issued by
-  // the next ticks).
-  const int cut_sim = static_cast<int>(sim.slots.size()), cut_hw = static_cast<int>(hw.slots.size());
-  int budget = std::max(0, issues_left_this_tick_);
-  for (Slots* kind : {&sim, &hw}) {
-    if (static_cast<int>(kind->slots.size()) > budget) kind->slots.resize(static_cast<std::size_t>(budget));
-    budget -= static_cast<int>(kind->slots.size());
-  }
-  const int beyond_sim = cut_sim - static_cast<int>(sim.slots.size());
-  const int beyond_hw = cut_hw - static_cast<int>(hw.slots.size());
+  // Every candidate written this tick counts against max_issues_per_tick (the DDS writes of a full fill
+  // would stall the event loop, see CoordinatorOptions), whichever kind of slot it goes to: a tick that
+  // reaches the cap leaves the other slots free for the next ticks, and they still count as free below.
   for (Study* s : order) {
     if (s->state != "running") continue;
     Slots& explore = explores_on_hardware(*s) ? hw : sim;
@@ -540,13 +536,15 @@ Coordinator::FreeSlots Coordinator::issue_waiting_work(const std::vector<Study*>
     for (auto& [trial_id, f] : s->in_flight) {
       if (!f.worker_id.empty()) continue;
       Slots& kind = f.validation ? hw : explore;
-      if (kind.free() == 0) continue;
+      if (kind.free() == 0 || issues_left_this_tick_ <= 0) continue;
       issue(*s, trial_id, *kind.slots[kind.next++], now_s, !f.issued_to.empty());
+      --issues_left_this_tick_;
     }
-    issue_proposed(*s, explore.slots, explore.next, now_s);
+    const std::size_t before = explore.next;
+    issue_proposed(*s, explore.slots, explore.next, std::max(0, issues_left_this_tick_), now_s);
+    issues_left_this_tick_ -= static_cast<int>(explore.next - before);
   }
-  issues_left_this_tick_ -= static_cast<int>(sim.next + hw.next);
-  return {sim.free() + beyond_sim, hw.free() + beyond_hw};
+  return {sim.free(), hw.free()};
 }
 
 int Coordinator::exploring_in_flight(const Study& s) {
@@ -636,9 +634,11 @@ bool Coordinator::count_outcome(Study& s, const msg::RolloutReport& r) {
   return true;
 }
 
-void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::size_t& next_slot, double now_s) {
+void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::size_t& next_slot, int max_count,
+                                 double now_s) {
   std::vector<study::StoredTrial> stored;
-  while (!s.proposed.empty() && next_slot + stored.size() < slots.size()) {
+  while (!s.proposed.empty() && next_slot + stored.size() < slots.size() &&
+         static_cast<int>(stored.size()) < max_count) {
     study::StoredTrial t;
     t.trial_id = s.next_trial_id++;
     t.x = std::move(s.proposed.front());
@@ -658,8 +658,11 @@ void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::siz
 void Coordinator::start_model_jobs(const std::vector<Study*>& order, FreeSlots free) {
   // Slots that a job already running will fill are not asked for twice; each study asks only for slots
   // of the kind its exploration runs on.
+  // Points already proposed and waiting for a slot (the issue cap held them back) will fill free slots too.
   int wanted[2] = {free.simulation, free.hardware};
-  for (const auto& [id, s] : studies_) wanted[explores_on_hardware(s)] -= s.asking;
+  for (const auto& [id, s] : studies_) {
+    wanted[explores_on_hardware(s)] -= s.asking + (s.state == "running" ? static_cast<int>(s.proposed.size()) : 0);
+  }
   int new_budget = options_.max_new_candidates_per_tick;  // points asked for this tick, over all studies
   for (Study* s : order) {
     if (s->model_busy || !s->optimizer) continue;
@@ -1018,7 +1021,7 @@ void Coordinator::retire_finished(Study& s, double now_s) {
 }
 
 void Coordinator::tick(double now_s) {
-  issues_left_this_tick_ = options_.max_issues_per_tick;
+  issues_left_this_tick_ = std::max(1, options_.max_issues_per_tick);
   apply_model_results();
   std::vector<std::string> silent;
   for (const auto& [id, w] : workers_) {

@@ -103,7 +103,7 @@ struct CoordinatorOptions {
   // Candidates issued (written to DDS) per tick, over all studies, re-issues included. Each write costs
   // the event thread about a millisecond with 8 workers reading, and a tick that filled 128 fresh slots at
   // once held every sample that arrived meanwhile for 70-160 ms (tests/bench/proposal_throughput.sh, the
-  // loop breakdown's "tick publish"); the rest of the slots are filled by the next ticks.
+  // loop breakdown's "tick publish"); the rest of the slots are filled by the next ticks. At least 1.
   int max_issues_per_tick = 16;
   // A study's trial records stay on the (transient-local) trials topic while it is open and this long
   // after it ended, for clients following it live (`study run` collects them at the end); then they leave
@@ -169,6 +169,8 @@ class Coordinator {
   int live_workers() const { return static_cast<int>(workers_.size()); }
   int studies() const { return static_cast<int>(studies_.size()); }
   bool idle() const;  // no running study has work left
+  // Points a study's model has proposed that wait for a free slot (0 for an unknown study).
+  int points_waiting(int study_id) const;
   std::uint64_t rejected_samples() const { return rejected_; }
   std::uint64_t foreign_reports() const { return foreign_reports_; }  // for another store: ignored
   bool on_probation(const std::string& worker_id) const { return probation_.count(worker_id) > 0; }
@@ -279,7 +281,7 @@ class Coordinator {
   std::vector<Study*> round_robin_order();
   // Re-issues, then proposed points, to free slots of the right kind; returns the slots still free.
   FreeSlots issue_waiting_work(const std::vector<Study*>& order, double now_s);
-  void issue_proposed(Study& study, std::vector<Worker*>& slots, std::size_t& next_slot, double now_s);
+  void issue_proposed(Study& study, std::vector<Worker*>& slots, std::size_t& next_slot, int max_count, double now_s);
   // Starts a model job for each study with reports to tell or free slots to ask for (per-tick cap).
   void start_model_jobs(const std::vector<Study*>& order, FreeSlots free);
   void start_model_job(Study& study, int ask);
@@ -317,7 +319,7 @@ class Coordinator {
   std::map<std::pair<std::string, std::uint64_t>, msg::CommandReply> replies_;
   std::deque<std::pair<std::string, std::uint64_t>> reply_order_;
   int round_robin_ = 0;
-  int issues_left_this_tick_ = 0;  // max_issues_per_tick, counted down by every issue_waiting_work() of a tick
+  int issues_left_this_tick_ = 0;  // max_issues_per_tick, counted down by every candidate a tick writes
   std::uint64_t rejected_ = 0;
   std::uint64_t foreign_reports_ = 0;
   std::set<std::uint64_t> foreign_stores_;  // store ids whose reports were ignored (logged once each)

@@ -24,7 +24,7 @@ namespace cpgmatch::worker {
 
 struct WorkerLinkConfig {
   int domain = 0;
-  std::string worker_id;         // unique on the domain; candidates are filtered on it
+  std::string worker_id;         // unique on the domain; the candidates addressed to it are kept
   std::string participant_name;  // what other participants see (logs, peer discovery)
   bool localhost_only = false;
   msg::WorkerKind kind = msg::WORKER_SIM;
