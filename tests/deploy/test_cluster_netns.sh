@@ -98,8 +98,9 @@ start() {  # start NS LOG COMMAND...: in the background, pid appended to PIDS
 }
 start opt discovery fastdds discovery -i 0 -l "${ADDR[opt]}" -p 11811
 start opt optimizer "$BIN/cpgmatch-optimizer" "${DDS[@]}" --store "$WORK/s.db"
-start wa worker-wa "$BIN/cpgmatch-sim-worker" "${DDS[@]}" --id wa --slots 2
-start wb worker-wb "$BIN/cpgmatch-sim-worker" "${DDS[@]}" --id wb --slots 2
+# Debug logs: every candidate a worker keeps and every report it writes (shown if the test fails).
+start wa worker-wa "$BIN/cpgmatch-sim-worker" "${DDS[@]}" --id wa --slots 2 --log-level debug
+start wb worker-wb "$BIN/cpgmatch-sim-worker" "${DDS[@]}" --id wb --slots 2 --log-level debug
 WB_PID=${PIDS[-1]}
 
 cat >"$WORK/s1.yaml" <<YAML
@@ -153,7 +154,8 @@ in_ns wb ip link set eth0 up
 echo "wb link up after $((SECONDS - down_at)) s, at $(field "$(view_state "$s2")" completed)/40"
 wait_for 20 eval '[[ $(grep -c "worker wb joined" "$WORK/optimizer.log") -gt $joined_before ]]' ||
   fail "wb did not rejoin after its link came back"
-wait_for 60 study_done "$s2" || fail "study 2 did not finish: $(view_state "$s2")"
+unfinished() { sqlite3 "$WORK/s.db" "select group_concat('trial ' || trial_id || ' attempt ' || attempt || ' on ' || worker_id, '; ') from trials where study_id=$s2 and status != 'done'"; }
+wait_for 60 study_done "$s2" || fail "study 2 did not finish: $(view_state "$s2"); in flight in the store: $(unfinished)"
 state=$(view_state "$s2")
 [[ $(field "$state" completed) == 40 ]] || fail "study 2 completed count: $state"
 # Exactly once: 40 done trials, 40 distinct ids, and the optimizer counted 40 (its state says so).

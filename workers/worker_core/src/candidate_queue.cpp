@@ -10,6 +10,16 @@ CandidateQueue::IssueKey CandidateQueue::issue_key(const msg::Candidate& c) {
   return {c.store_id(), c.study_id(), c.trial_id(), c.attempt()};
 }
 
+const char* CandidateQueue::to_string(Offer offer) {
+  switch (offer) {
+    case Offer::kQueued: return "queued";
+    case Offer::kNotOurs: return "not ours";
+    case Offer::kDuplicate: return "duplicate (this issue is queued or running)";
+    case Offer::kDraining: return "dropped (shutting down)";
+  }
+  return "?";
+}
+
 CandidateQueue::Offer CandidateQueue::offer(const msg::Candidate& c) {
   // The worker's reader delivers every candidate on the domain: this is where a worker keeps its own, so
   // it never runs (and the optimizer never rejects a report for) another worker's candidate.

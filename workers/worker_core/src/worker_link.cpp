@@ -25,7 +25,14 @@ WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
       reports_(participant_),
       announcements_(participant_),
       candidates_(
-          participant_, [this](const msg::Candidate& c) { queue_.offer(c); },  // the queue keeps only ours
+          participant_,
+          [this](const msg::Candidate& c) {
+            const CandidateQueue::Offer offer = queue_.offer(c);  // the queue keeps only ours
+            if (offer != CandidateQueue::Offer::kNotOurs) {
+              spdlog::debug("worker {}: candidate study {} trial {} attempt {}: {}", config_.worker_id, c.study_id(),
+                            c.trial_id(), c.attempt(), CandidateQueue::to_string(offer));
+            }
+          },
           [this](const msg::Candidate& key, dds::InstanceGone gone) {
             if (gone.disposed) acknowledged(key);  // not on a lost optimizer: its successor needs the reports
           }) {
@@ -37,6 +44,8 @@ WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
 bool WorkerLink::publish(const msg::RolloutReport& report) {
   std::lock_guard<std::mutex> lock(mutex_);
   const bool written = reports_.write(report);
+  spdlog::debug("worker {}: report study {} trial {} attempt {} written (ok {}, cost {})", config_.worker_id,
+                report.study_id(), report.trial_id(), report.attempt(), report.ok(), report.cost());
   if (!written) spdlog::error("study {} trial {}: report write failed", report.study_id(), report.trial_id());
   for (const auto& old : kept_.keep(report)) reports_.unregister(old);
   return written;

@@ -36,6 +36,7 @@ class CandidateQueue {
     kDraining,   // shutting down: the optimizer re-issues it once this worker has left the domain
   };
   Offer offer(const msg::Candidate& c);
+  static const char* to_string(Offer offer);  // "queued", "not ours", "duplicate", "draining" (for logs)
 
   // The oldest queued candidate, now counted as running; blocks until there is one. nullopt once
   // drain() was called: the caller's loop ends.
