@@ -49,7 +49,9 @@ held=$(sed -n 's/.*lease expired \([0-9]*\)$/\1/p' <<<"$rogue")
 forged_counted() { sql "$1" "select count(*) from trials where status='done' and json_extract(report_json,'\$.ok') and cost < 0.001"; }
 [[ $(forged_counted "$WORK/s.db") == 0 ]] ||
   fail "a forged report (cost 1e-6) was counted"
-[[ $(sql "$WORK/s.db" "select count(*) from trials where status='done' and json_extract(report_json,'\$.wall_time_s') > 0") == 16 ]] ||
+# Every counted rollout that ran took time (mallory answers at once); a rollout that failed (ok = false:
+# killed at its 3-s timeout on a loaded machine, seen in CI) is the honest worker's and did not run to the end.
+[[ $(sql "$WORK/s.db" "select count(*) from trials where status='done' and json_extract(report_json,'\$.ok') and coalesce(json_extract(report_json,'\$.wall_time_s'), 0) <= 0") == 0 ]] ||
   fail "a counted report did not come from a real rollout"
 refused=$(grep -c "rejected report for study 1 trial [0-9]* from worker: the sender's certificate is CN=mallory" "$WORK/optimizer.log" || true)
 [[ $refused -ge 1 ]] || fail "no forged report was refused by name"
