@@ -66,6 +66,32 @@ struct Event {
   std::chrono::steady_clock::time_point arrived = std::chrono::steady_clock::now();
 };
 
+using Clock = std::chrono::steady_clock;
+double seconds_between(Clock::time_point from, Clock::time_point to) {
+  return std::chrono::duration<double>(to - from).count();
+}
+
+// Hands one sample to the coordinator. A store that cannot be written stops the service (the caller's
+// transaction rolls back, nothing unrecorded was acknowledged); any other error drops only this sample.
+void dispatch(Coordinator& coordinator, Event& event) {
+  const double now = monotonic_now_s();
+  try {
+    std::visit(
+        [&](auto& e) {
+          using T = std::decay_t<decltype(e)>;
+          if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
+          else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) coordinator.handle_report(e.sample, now, e.sender);
+          else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) coordinator.handle_worker(e.sample, now, e.sender);
+          else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now, e.disposed_by);
+        },
+        event.sample);
+  } catch (const study::StoreWriteError&) {
+    throw;  // disk full, read-only store: stop and say so (run_reporting_errors)
+  } catch (const std::exception& e) {
+    spdlog::error("event dropped: {}", e.what());  // a sample that slipped past validation must not take the service down
+  }
+}
+
 // Model threads by default: one per core. They run niced, so the event thread still gets a core when it
 // needs one; with 20 studies on 2 cores, 2 threads gave 104 results/s against 78 for 1
 // (tests/bench/proposal_throughput.sh).
@@ -187,9 +213,8 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
     LatencyRecorder* publish = nullptr;
   };
   auto in_one_transaction = [&](auto&& body, PhaseTimes times = {}) {
-    using Clock = std::chrono::steady_clock;
     auto record = [](LatencyRecorder* r, Clock::time_point since) {
-      if (r != nullptr) r->add(std::chrono::duration<double>(Clock::now() - since).count());
+      if (r != nullptr) r->add(seconds_between(since, Clock::now()));
     };
     study::StudyStore::Batch batch(store);
     outbox.hold();
@@ -217,42 +242,24 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
     for (std::size_t first = 0; first < events.size();) {
       std::size_t last = first;
       in_one_transaction([&] {
-        const auto chunk_start = std::chrono::steady_clock::now();
-        queue_wait.add(std::chrono::duration<double>(chunk_start - events[first].arrived).count());
-        while (last < events.size() && last - first < kMaxChunkEvents &&
-               std::chrono::steady_clock::now() - chunk_start < kMaxChunk) {
-          auto& event = events[last++];
-          const double now = monotonic_now_s();
-          try {
-            std::visit(
-                [&](auto& e) {
-                  using T = std::decay_t<decltype(e)>;
-                  if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
-                  else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) coordinator.handle_report(e.sample, now, e.sender);
-                  else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) coordinator.handle_worker(e.sample, now, e.sender);
-                  else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now, e.disposed_by);
-                },
-                event.sample);
-          } catch (const study::StoreWriteError&) {
-            throw;  // disk full, read-only store: stop and say so (run_reporting_errors); nothing unrecorded was acknowledged
-          } catch (const std::exception& e) {
-            // A sample that slipped past validation must not take the service down.
-            spdlog::error("event dropped: {}", e.what());
-          }
+        const auto chunk_start = Clock::now();
+        queue_wait.add(seconds_between(events[first].arrived, chunk_start));
+        while (last < events.size() && last - first < kMaxChunkEvents && Clock::now() - chunk_start < kMaxChunk) {
+          dispatch(coordinator, events[last++]);
         }
       }, PhaseTimes{&chunk_handling, &chunk_commit, &chunk_publish});
       // Handled = committed and its effects published.
-      const auto handled = std::chrono::steady_clock::now();
+      const auto handled = Clock::now();
       for (std::size_t i = first; i < last; ++i) {
         if (!std::holds_alternative<ModelResult>(events[i].sample)) {
-          sample_latency.add(std::chrono::duration<double>(handled - events[i].arrived).count());
+          sample_latency.add(seconds_between(events[i].arrived, handled));
         }
       }
       first = last;
     }
-    const auto tick_start = std::chrono::steady_clock::now();
+    const auto tick_start = Clock::now();
     in_one_transaction([&] { coordinator.tick(monotonic_now_s()); }, PhaseTimes{nullptr, &tick_commit, &tick_publish});
-    tick_duration.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - tick_start).count());
+    tick_duration.add(seconds_between(tick_start, Clock::now()));
     if (g_print_stats) {
       g_print_stats = 0;
       log_latency();
