@@ -63,13 +63,19 @@ Eigen::MatrixXd GaussianProcess::kernel(const Eigen::MatrixXd& A, const Eigen::M
   const Eigen::MatrixXd Bs = B * inv_l.matrix().asDiagonal();
   const Eigen::VectorXd a2 = As.rowwise().squaredNorm();
   const Eigen::VectorXd b2 = Bs.rowwise().squaredNorm();
-  Eigen::MatrixXd r2 = (-2.0 * As * Bs.transpose()).colwise() + a2;
-  r2.rowwise() += b2.transpose();
+  // Every step in place in the one result matrix: for the acquisition search's 1000 candidates it is
+  // ~1 MB, and each further temporary of that size costs a pass over memory and, from a fresh
+  // allocation, its page faults (as much again as the arithmetic in a small process).
+  Eigen::MatrixXd K(A.rows(), B.rows());
+  K.noalias() = -2.0 * As * Bs.transpose();
+  K.colwise() += a2;
+  K.rowwise() += b2.transpose();
   const double amp = std::exp(h.log_amplitude);
-  // Array expressions, so that sqrt and exp run vectorised (Eigen's SIMD exp, within an ulp or two of
-  // libm's): the kernel of the acquisition search's 1000 candidates is a large share of a proposal.
-  const Eigen::ArrayXXd r = r2.array().max(0.0).sqrt();
-  return (amp * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r.square()) * (-kSqrt5 * r).exp()).matrix();
+  // Whole-array expressions, so that sqrt and exp run vectorised (Eigen's SIMD exp, within an ulp or two
+  // of libm's): the kernel of the candidates is a large share of a proposal.
+  K.array() = K.array().max(0.0).sqrt();
+  K.array() = amp * (1.0 + kSqrt5 * K.array() + 5.0 / 3.0 * K.array().square()) * (-kSqrt5 * K.array()).exp();
+  return K;
 }
 
 Eigen::VectorXd GaussianProcess::lower_bounds(int d) const {
@@ -99,12 +105,13 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   // them (this function is most of a hyperparameter fit). Per dimension, as whole-matrix array
   // operations (vectorised; the pairwise differences themselves, not a Gram matrix, so close points keep
   // their accuracy).
-  Eigen::ArrayXXd R2 = Eigen::ArrayXXd::Zero(n, n);
+  // Squared distances, then the distances in the same array (one n x n buffer fewer to allocate and fill).
+  Eigen::ArrayXXd R = Eigen::ArrayXXd::Zero(n, n);
   for (int b = 0; b < n; ++b) {
-    for (int j = 0; j < d; ++j) R2.col(b) += (Xs.col(j).array() - Xs(b, j)).square();
+    for (int j = 0; j < d; ++j) R.col(b) += (Xs.col(j).array() - Xs(b, j)).square();
   }
-  const Eigen::ArrayXXd R = R2.sqrt();
-  const Eigen::ArrayXXd E = (-kSqrt5 * R).exp();
+  R = R.sqrt();
+  Eigen::ArrayXXd E = (-kSqrt5 * R).exp();
   const Eigen::MatrixXd Kf = (amp * (1.0 + kSqrt5 * R + 5.0 / 3.0 * R.square()) * E).matrix();
   Eigen::MatrixXd K = Kf;
   const double noise = std::exp(h.log_noise);
@@ -133,12 +140,15 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
     (*grad)[0] = 0.5 * (W.array() * Kf.array()).sum();
     (*grad)[d + 1] = 0.5 * noise * W.trace();
     // For Matern 5/2: dk/dlog(l_j) = amp * 5/3 (1 + sqrt5 r) exp(-sqrt5 r) * (x_j - x'_j)^2 / l_j^2.
-    const Eigen::ArrayXXd common = amp * 5.0 / 3.0 * (1.0 + kSqrt5 * R) * E * W.array();
-    for (int j = 0; j < d; ++j) {
-      double sum = 0.0;
-      for (int b = 0; b < n; ++b) sum += (common.col(b) * (Xs.col(j).array() - Xs(b, j)).square()).sum();
-      (*grad)[1 + j] = 0.5 * sum;  // symmetric; zero on the diagonal
+    // The common factor overwrites E (not needed any more). Column b's terms for every dimension while
+    // the column is in cache; each dimension's sum still runs over b in order.
+    Eigen::ArrayXXd& common = E;
+    common = amp * 5.0 / 3.0 * (1.0 + kSqrt5 * R) * E * W.array();
+    Eigen::VectorXd sums = Eigen::VectorXd::Zero(d);
+    for (int b = 0; b < n; ++b) {
+      for (int j = 0; j < d; ++j) sums[j] += (common.col(b) * (Xs.col(j).array() - Xs(b, j)).square()).sum();
     }
+    grad->segment(1, d) = 0.5 * sums;  // symmetric; zero on the diagonal
   }
   return lml;
 }
@@ -283,9 +293,11 @@ Prediction GaussianProcess::predict_with_gradient(const Eigen::VectorXd& x, Eige
   const double amp = std::exp(hyper_.log_amplitude);
   const Eigen::ArrayXd inv_l2 = (-2.0 * hyper_.log_length_scales.array()).exp();
   Eigen::VectorXd k(n_);
-  Eigen::MatrixXd dk(n_, d);  // dk_i/dx
+  Eigen::MatrixXd dk;  // dk_i/dx, when a gradient is asked for
+  if (dmean || dstd) dk.resize(n_, d);
+  Eigen::ArrayXd diff(d);      // one buffer for every row, not an allocation per row
   for (int i = 0; i < n_; ++i) {
-    const Eigen::ArrayXd diff = x.array() - X_.row(i).transpose().array();
+    diff = x.array() - X_.row(i).transpose().array();
     const double r = std::sqrt((diff.square() * inv_l2).sum());
     const double e = std::exp(-kSqrt5 * r);
     k[i] = amp * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r * r) * e;
@@ -306,10 +318,10 @@ Prediction GaussianProcess::predict_with_gradient(const Eigen::VectorXd& x, Eige
 }
 
 void GaussianProcess::predict_many(const Eigen::MatrixXd& C, Eigen::VectorXd* mean, Eigen::VectorXd* std) const {
-  const Eigen::MatrixXd Kc = kernel(X_, C.transpose(), hyper_);  // n x m
+  Eigen::MatrixXd V = kernel(X_, C.transpose(), hyper_);  // n x m: k(X, C), then L^-1 k(X, C) in place
   const double amp = std::exp(hyper_.log_amplitude);
-  *mean = (Kc.transpose() * alpha_).array() * y_scale_ + y_mean_;
-  const Eigen::MatrixXd V = L_.triangularView<Eigen::Lower>().solve(Kc);
+  *mean = (V.transpose() * alpha_).array() * y_scale_ + y_mean_;
+  L_.triangularView<Eigen::Lower>().solveInPlace(V);
   const Eigen::ArrayXd var = (amp - V.colwise().squaredNorm().transpose().array()).max(1e-12 * amp);
   *std = y_scale_ * var.sqrt();
 }
