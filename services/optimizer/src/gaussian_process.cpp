@@ -226,9 +226,9 @@ void GaussianProcess::refit_fixed(const Eigen::MatrixXd& X, const Eigen::VectorX
   factorise();
 }
 
-void GaussianProcess::append_fixed(const Eigen::MatrixXd& U, const Eigen::VectorXd& y) {
+bool GaussianProcess::append_fixed(const Eigen::MatrixXd& U, const Eigen::VectorXd& y) {
   const int m = static_cast<int>(U.rows());
-  if (m == 0) return;
+  if (m == 0) return true;
   const int n = n_;
   Eigen::MatrixXd X(n + m, X_.cols());
   X << X_, U;
@@ -239,6 +239,7 @@ void GaussianProcess::append_fixed(const Eigen::MatrixXd& U, const Eigen::Vector
     n_ = n + m;
     y_std_ = std::move(y_std);
     factorise();
+    return false;
   };
   if (n == 0) return refactorise();
   // [K11 K12; K21 K22] = [L 0; B^T C][L^T B; 0 C^T]: B = L^-1 K12, C C^T = K22 - B^T B.
@@ -258,6 +259,7 @@ void GaussianProcess::append_fixed(const Eigen::MatrixXd& U, const Eigen::Vector
   n_ = n + m;
   y_std_ = std::move(y_std);
   alpha_ = solve(y_std_);
+  return true;
 }
 
 Eigen::VectorXd GaussianProcess::solve(const Eigen::VectorXd& b) const {
@@ -318,11 +320,47 @@ Prediction GaussianProcess::predict_with_gradient(const Eigen::VectorXd& x, Eige
 }
 
 void GaussianProcess::predict_many(const Eigen::MatrixXd& C, Eigen::VectorXd* mean, Eigen::VectorXd* std) const {
-  Eigen::MatrixXd V = kernel(X_, C.transpose(), hyper_);  // n x m: k(X, C), then L^-1 k(X, C) in place
-  const double amp = std::exp(hyper_.log_amplitude);
-  *mean = (V.transpose() * alpha_).array() * y_scale_ + y_mean_;
+  predict_candidates(candidate_posterior(C), mean, std);
+}
+
+CandidatePosterior GaussianProcess::candidate_posterior(const Eigen::MatrixXd& C) const {
+  CandidatePosterior cp;
+  cp.C = C;
+  cp.rows = n_;
+  cp.V = kernel(X_, C.transpose(), hyper_);  // k(X, C), then L^-1 k(X, C) in place
+  Eigen::MatrixXd& V = cp.V;
+  cp.mean_std.noalias() = V.transpose() * alpha_;
   L_.triangularView<Eigen::Lower>().solveInPlace(V);
-  const Eigen::ArrayXd var = (amp - V.colwise().squaredNorm().transpose().array()).max(1e-12 * amp);
+  cp.var_taken = V.colwise().squaredNorm().transpose();
+  cp.z = L_.triangularView<Eigen::Lower>().solve(y_std_);
+  return cp;
+}
+
+void GaussianProcess::extend(CandidatePosterior& cp) const {
+  const int n = cp.rows, m = n_ - cp.rows;
+  if (m <= 0) return;
+  // New rows of L: [B^T Cs] (append_fixed). Rows of V and z: Cs^-1 (k(U, C) - B^T V), Cs^-1 (y_U - B^T z).
+  const auto Bt = L_.block(n, 0, m, n);
+  const auto Cs = L_.block(n, n, m, m).triangularView<Eigen::Lower>();
+  cp.V.conservativeResize(n_, Eigen::NoChange);  // a copy of V (cheap beside the products below)
+  auto Vnew = cp.V.middleRows(n, m);
+  Vnew = kernel(X_.middleRows(n, m), cp.C.transpose(), hyper_);
+  Vnew.noalias() -= Bt * cp.V.topRows(n);
+  Cs.solveInPlace(Vnew);
+  Eigen::VectorXd znew = y_std_.segment(n, m);
+  znew.noalias() -= Bt * cp.z;
+  Cs.solveInPlace(znew);
+  cp.mean_std.noalias() += Vnew.transpose() * znew;
+  cp.var_taken += Vnew.colwise().squaredNorm().transpose();
+  cp.z.conservativeResize(n_);
+  cp.z.tail(m) = znew;
+  cp.rows = n_;
+}
+
+void GaussianProcess::predict_candidates(const CandidatePosterior& cp, Eigen::VectorXd* mean, Eigen::VectorXd* std) const {
+  const double amp = std::exp(hyper_.log_amplitude);
+  *mean = cp.mean_std.array() * y_scale_ + y_mean_;
+  const Eigen::ArrayXd var = (amp - cp.var_taken.array()).max(1e-12 * amp);
   *std = y_scale_ * var.sqrt();
 }
 

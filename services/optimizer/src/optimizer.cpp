@@ -255,28 +255,57 @@ void run_tasks(int count, int threads, const Task& task) {
   if (error) std::rethrow_exception(error);
 }
 
-std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std::vector<Acquisition>& acquisitions,
-                                                                      double y_best, std::mt19937_64& rng) const {
+// The candidates' posterior in this many column blocks, whatever the number of threads that compute them:
+// the result (to the last bit) does not depend on the threads.
+constexpr int kCandidateBlocks = 2;
+
+BayesianOptimizer::Candidates BayesianOptimizer::draw_candidates(std::mt19937_64& rng) const {
   const int d = space_.size();
   const int m = options_.acquisition_candidates;
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  Eigen::MatrixXd C(d, m);
+  Candidates c;
+  c.C.resize(d, m);
   for (int j = 0; j < m; ++j)
-    for (int i = 0; i < d; ++i) C(i, j) = unit(rng);
-  // The candidates' posterior in a fixed number of column blocks, whatever the number of threads that
-  // compute them: the result (to the last bit) does not depend on the threads.
-  constexpr int kCandidateBlocks = 2;
-  Eigen::VectorXd mean(m), std(m);
+    for (int i = 0; i < d; ++i) c.C(i, j) = unit(rng);
+  compute_posterior(c);
+  c.p_safe = fall_.probability_safe_many(c.C);  // all 1 while there is no fall model; lies do not change it
+  return c;
+}
+
+void BayesianOptimizer::compute_posterior(Candidates& c) const {
+  const long m = c.C.cols();
+  c.blocks.assign(kCandidateBlocks, CandidatePosterior{});
   run_tasks(kCandidateBlocks, threads_, [&](int b) {
-    const int first = static_cast<int>(static_cast<long>(m) * b / kCandidateBlocks);
-    const int last = static_cast<int>(static_cast<long>(m) * (b + 1) / kCandidateBlocks);
-    if (last == first) return;
-    Eigen::VectorXd mb, sb;
-    gp_.predict_many(C.middleCols(first, last - first), &mb, &sb);
-    mean.segment(first, last - first) = mb;
-    std.segment(first, last - first) = sb;
+    const long first = m * b / kCandidateBlocks, last = m * (b + 1) / kCandidateBlocks;
+    c.blocks[static_cast<std::size_t>(b)] = gp_.candidate_posterior(c.C.middleCols(first, last - first));
   });
-  const Eigen::VectorXd p_safe = fall_.probability_safe_many(C);  // all 1 while there is no fall model
+}
+
+void BayesianOptimizer::extend_posterior(Candidates& c) const {
+  run_tasks(kCandidateBlocks, threads_, [&](int b) { gp_.extend(c.blocks[static_cast<std::size_t>(b)]); });
+}
+
+std::vector<Eigen::VectorXd> BayesianOptimizer::optimise_acquisitions(const std::vector<Acquisition>& acquisitions,
+                                                                      double y_best, std::mt19937_64& rng) const {
+  return refine_acquisitions(acquisitions, y_best, draw_candidates(rng));
+}
+
+std::vector<Eigen::VectorXd> BayesianOptimizer::refine_acquisitions(const std::vector<Acquisition>& acquisitions,
+                                                                    double y_best, const Candidates& candidates) const {
+  const int d = space_.size();
+  const Eigen::MatrixXd& C = candidates.C;
+  const Eigen::VectorXd& p_safe = candidates.p_safe;
+  const int m = static_cast<int>(C.cols());
+  Eigen::VectorXd mean(m), std(m);
+  for (int b = 0, first = 0; b < kCandidateBlocks; ++b) {
+    const CandidatePosterior& block = candidates.blocks[static_cast<std::size_t>(b)];
+    const int size = static_cast<int>(block.C.cols());
+    Eigen::VectorXd mb, sb;
+    gp_.predict_candidates(block, &mb, &sb);
+    mean.segment(first, size) = mb;
+    std.segment(first, size) = sb;
+    first += size;
+  }
 
   struct Context {
     const BayesianOptimizer* self;
@@ -427,6 +456,9 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vect
   std::vector<Eigen::VectorXd> out;
   auto rng = rng_for(issued, kAskPurpose);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
+  // One candidate set for the whole ask: each chosen point's lie adds a row to their posterior
+  // (extend_posterior) instead of a fresh kernel and triangular solve over every point per point.
+  std::optional<Candidates> candidates;
   for (int k = 0; k < n; ++k) {
     int choice = 0;
     if (options_.acquisition == Acquisition::kHedge) {
@@ -439,14 +471,19 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vect
     if (k == 0 && !lies_present) {
       u = next_proposals_[choice];  // computed at the last tell, exactly as scikit-optimize's ask()
     } else {
-      u = optimise_acquisitions({a}, data.y.minCoeff(), rng).front();
+      if (!candidates) candidates = draw_candidates(rng);
+      u = refine_acquisitions({a}, data.y.minCoeff(), *candidates).front();
     }
     if (is_duplicate(u, data.X)) {
       for (int i = 0; i < u.size(); ++i) u[i] = unit(rng);
     }
     out.push_back(space_.from_unit(u));
     append(u);
-    if (k + 1 < n) gp_.append_fixed(data.X.bottomRows(1), data.y.tail(1));
+    if (k + 1 < n) {
+      const bool extended = gp_.append_fixed(data.X.bottomRows(1), data.y.tail(1));
+      if (candidates && extended) extend_posterior(*candidates);
+      if (candidates && !extended) compute_posterior(*candidates);  // refactorised: earlier rows changed
+    }
   }
   gp_ = fitted;
   return out;

@@ -45,6 +45,20 @@ struct Prediction {
   double std = 0.0;
 };
 
+// The posterior at a fixed set of candidates (columns of C), in a form that follows the model as points
+// are appended to it (GaussianProcess::append_fixed, a batch's lies): with K = L L^T,
+//   mean = k^T K^-1 y = V^T z,  var = amp - |V|^2 (per column),  V = L^-1 k(X, C),  z = L^-1 y,
+// and appending rows to L only appends rows to V and z. So the next point of a batch costs the new rows
+// (a kernel row and a product with V) instead of a fresh kernel and triangular solve over all points.
+struct CandidatePosterior {
+  Eigen::MatrixXd C;          // d x m candidates (unit cube)
+  Eigen::MatrixXd V;          // rows x m: L^-1 k(X, C)
+  Eigen::VectorXd z;          // L^-1 y_std, `rows` entries
+  Eigen::VectorXd mean_std;   // standardised posterior means
+  Eigen::VectorXd var_taken;  // |V.col(j)|^2 so far
+  int rows = 0;               // model points covered
+};
+
 class GaussianProcess {
  public:
   explicit GaussianProcess(GpOptions options = {});
@@ -62,13 +76,22 @@ class GaussianProcess {
   // (O(n^2 m + m^3) instead of O((n+m)^3) and no kernel of the old points with themselves): the working
   // model of a batch gains one fake result per pending or chosen point. Falls back to refit_fixed() when
   // the extension is not positive definite (it would need more jitter than the current factor has).
-  void append_fixed(const Eigen::MatrixXd& U, const Eigen::VectorXd& y);
+  // Returns false when it refactorised (the factor's earlier rows changed: incremental state built on
+  // them, a CandidatePosterior, must be recomputed).
+  bool append_fixed(const Eigen::MatrixXd& U, const Eigen::VectorXd& y);
 
   Prediction predict(const Eigen::VectorXd& x) const;
   // Mean and std with their gradients with respect to x.
   Prediction predict_with_gradient(const Eigen::VectorXd& x, Eigen::VectorXd* dmean, Eigen::VectorXd* dstd) const;
   // Means and stds for many points at once (columns of C): one triangular solve for all.
   void predict_many(const Eigen::MatrixXd& C, Eigen::VectorXd* mean, Eigen::VectorXd* std) const;
+  // The same posterior as predict_many() (bit for bit), kept for extend().
+  CandidatePosterior candidate_posterior(const Eigen::MatrixXd& C) const;
+  // Brings `cp` to every current point, given that the factor's first cp.rows rows are those cp was
+  // built with (only append_fixed() returning true since).
+  void extend(CandidatePosterior& cp) const;
+  // Means and stds (original units) of a candidate posterior covering every current point.
+  void predict_candidates(const CandidatePosterior& cp, Eigen::VectorXd* mean, Eigen::VectorXd* std) const;
 
   // Log marginal likelihood of the standardised data at theta; fills grad (d/dtheta) when non-null.
   double log_marginal_likelihood(const Eigen::VectorXd& theta, Eigen::VectorXd* grad) const;

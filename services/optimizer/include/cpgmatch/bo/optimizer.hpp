@@ -181,10 +181,24 @@ class BayesianOptimizer {
   void check_cost(double y, const char* where) const;  // throws InputError: not finite, or <= 0 under log
   bool model_due() const;  // enough observations for the model (the condition under which record() refits)
   std::mt19937_64 rng_for(std::uint64_t counter, std::uint64_t purpose) const;
+  // The acquisition search's random candidates with their posterior on the current GP (in a fixed number
+  // of column blocks: the same bits for any number of threads) and probability of not falling.
+  struct Candidates {
+    Eigen::MatrixXd C;  // d x m, unit cube
+    std::vector<CandidatePosterior> blocks;
+    Eigen::VectorXd p_safe;
+  };
+  Candidates draw_candidates(std::mt19937_64& rng) const;
+  // The posterior of c.C on the current GP, from scratch.
+  void compute_posterior(Candidates& c) const;
+  // After points were appended to the GP (append_fixed() returned true): the posterior's new rows only.
+  void extend_posterior(Candidates& c) const;
   // Minimises each acquisition over the unit cube on the current GP. The random candidates and their
   // posterior are computed once and shared; each acquisition then refines its own best candidates.
   std::vector<Eigen::VectorXd> optimise_acquisitions(const std::vector<Acquisition>& acquisitions, double y_best,
                                                      std::mt19937_64& rng) const;
+  std::vector<Eigen::VectorXd> refine_acquisitions(const std::vector<Acquisition>& acquisitions, double y_best,
+                                                   const Candidates& candidates) const;
   std::vector<Eigen::VectorXd> ask_model(int n, const std::vector<Eigen::VectorXd>& pending, int issued);
   bool is_duplicate(const Eigen::VectorXd& u, const Eigen::MatrixXd& taken) const;
 
