@@ -88,7 +88,7 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
     }
     // Early toe-off: ground lost after touchdown, before the knee was due to flex.
     if (touched_down_ && !contact && config_.early_toeoff && phase < timing.knee_flex_start &&
-        early_flex_start_ < 0.0) {
+        phase >= config_.eto_min_stance_fraction * duty && early_flex_start_ < 0.0) {
       early_flex_start_ = phase;
     }
     // The ground came back before the scheduled flexion: the leg is loaded again, cancel the early flexion.

@@ -138,7 +138,8 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       f.reject_unknown_keys({"late_touchdown", "early_touchdown", "early_toeoff", "late_toeoff_deceleration",
                              "late_touchdown_phase_rate", "late_toeoff_phase_rate", "reflex_duration_s",
                              "reflex_knee_flexion_rad", "reflex_hip_passive", "etd_min_airborne_s",
-                             "etd_min_knee_flexion_fraction", "late_touchdown_max_wait_s"});
+                             "etd_min_knee_flexion_fraction", "late_touchdown_max_wait_s",
+                             "eto_min_stance_fraction"});
       auto& fb = cc.feedback;
       fb.late_touchdown = f.get_bool("late_touchdown", fb.late_touchdown);
       fb.early_touchdown = f.get_bool("early_touchdown", fb.early_touchdown);
@@ -152,10 +153,10 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       fb.etd_min_airborne_s = f.get_double("etd_min_airborne_s", fb.etd_min_airborne_s);
       fb.etd_min_knee_flexion_fraction =
           f.get_double_in("etd_min_knee_flexion_fraction", fb.etd_min_knee_flexion_fraction, 0.0, 1.0);
-      // Optional: absent means unbounded (the paper's "until contact"), which YAML cannot spell as a number.
-      if (f.has("late_touchdown_max_wait_s")) {
-        fb.late_touchdown_max_wait_s = f.get_double_in("late_touchdown_max_wait_s", 0.0, 0.0, 10.0);
-      }
+      fb.eto_min_stance_fraction = f.get_double_in("eto_min_stance_fraction", fb.eto_min_stance_fraction, 0.0, 1.0);
+      // Up to 10 s: a stance lasts well under that, so 10 is the paper's literal "until contact".
+      fb.late_touchdown_max_wait_s =
+          f.get_double_in("late_touchdown_max_wait_s", fb.late_touchdown_max_wait_s, 0.0, 10.0);
       if (!(fb.etd_min_airborne_s >= 0.0 && fb.etd_min_airborne_s <= 0.5)) f.fail("etd_min_airborne_s", "must be in [0, 0.5] s");
       if (fb.late_touchdown_phase_rate < 0.0 || fb.late_touchdown_phase_rate > 1.0) {
         f.fail("late_touchdown_phase_rate", "must be in [0, 1]");

@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # A slot count is a claim, not a right (no DDS-Security needed): a worker that announces 16 slots, takes its
-# candidates and never answers loses them at their lease (3 s here) and is then on probation: it holds at
+# candidates and never answers loses them at their lease (6 s here) and is then on probation: it holds at
 # most one candidate at a time (2 allowed for the two clocks) and gets work only when the honest worker has
 # no free slot. The study completes through the honest worker.
 #   BIN=build/bin DOMAIN=61 ROGUE=build/bin/rogue_worker test_greedy_worker.sh
 source "$(dirname "$0")/lib.sh"
 ROGUE=${ROGUE:?ROGUE must point at rogue_worker}
 write_study "$WORK/s.yaml" greedy 16 16
-echo "lease_s: 3" >>"$WORK/s.yaml"  # a lease that expires within the test
+# A lease that expires within the test. It is also the honest worker's rollout timeout: 3 s was too
+# short for two 1-s rollouts on a machine loaded by a full ctest -j2 (both killed at 3.0 s, seen once).
+echo "lease_s: 6" >>"$WORK/s.yaml"
 start_optimizer "$WORK/s.db"
 start_worker honest --slots 2
 "$ROGUE" "$DOMAIN" - - greedy 16 - 120 >"$WORK/rogue.out" 2>"$WORK/rogue.log" &

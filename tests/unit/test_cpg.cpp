@@ -42,6 +42,25 @@ TEST(Cpg, DecelerationSlowsOnlyTheDeceleratedLegWhileCouplingPullsItBack) {
   EXPECT_LT(net.locking_error(), 1e-3);
 }
 
+TEST(Cpg, AHeldLegIsStillPulledByItsCouplingSoItsLagStaysBoundedAndTheOthersSlowDown) {
+  // Feedback scales a node's own frequency; the coupling terms stay. A leg held at rate 0 for 2 s (a
+  // foot that never finds the ground) therefore lags by a bounded amount and drags the network with it,
+  // instead of drifting two cycles out of the gait while the others walk on.
+  PhaseOscillatorNetwork net(Gait::named("trot"), 0.5);
+  const long other_cycles_before = net.cycles()[kFrontRight];
+  const double other_phase_before = net.phases()[kFrontRight];
+  double worst_lock = 0.0;
+  for (int i = 0; i < 1000; ++i) {
+    net.step(0.002, 1.0, {0.0, 1, 1, 1});
+    worst_lock = std::max(worst_lock, net.locking_error());
+  }
+  EXPECT_GT(worst_lock, 0.02);  // the held leg does fall behind...
+  EXPECT_LT(worst_lock, 0.15);  // ...by less than a sixth of a cycle
+  const double other_advance = (net.cycles()[kFrontRight] - other_cycles_before) + net.phases()[kFrontRight] - other_phase_before;
+  EXPECT_LT(other_advance, 1.9);  // the others walked slower than 1 Hz while it was held
+  EXPECT_GT(net.phases()[kFrontLeft] + net.cycles()[kFrontLeft], 0.5);  // and the held leg was pulled along
+}
+
 TEST(Cpg, UnknownGaitIsAnInputError) { EXPECT_THROW(Gait::named("gallop"), InputError); }
 
 TEST(Trajectory, HipProfileHitsItsKeyPointsAndIsContinuous) {

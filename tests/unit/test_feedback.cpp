@@ -143,6 +143,52 @@ TEST(Feedback, EarlyToeoffIsCancelledWhenTheGroundComesBack) {
   EXPECT_EQ(eto_after_return, 0);
 }
 
+TEST(Feedback, AFootBouncingOffInTheFirstHalfOfStanceIsNoEarlyToeoff) {
+  // D 0.5, knee flex due at 0.4, mid-stance at 0.25. The foot leaves the ground at 0.05 and is back at
+  // 0.15 (a bounce after touchdown, the leg still in front of the hip taking the body's weight): no early
+  // flexion at all. Session 7's window (eto_min_stance_fraction 0) flexed that loaded knee at 0.05.
+  const StepTiming t{0.5, 0.4, 0.9};
+  auto eto_ticks = [&](double min_stance_fraction, double* first_flex_start) {
+    FeedbackConfig cfg;
+    cfg.eto_min_stance_fraction = min_stance_fraction;
+    LegFeedback fb(cfg);
+    double phase = 0.0;
+    int eto = 0;
+    *first_flex_start = -1.0;
+    for (int tick = 0; tick < 1000; ++tick) {
+      const bool bounce = phase >= 0.05 && phase < 0.15;
+      const auto a = fb.update(phase, phase < 0.5 && !bounce, 0.002, t);
+      if (tick >= 500 && a.activity.early_toeoff) {
+        ++eto;
+        if (*first_flex_start < 0.0) *first_flex_start = a.knee_flex_start;
+      }
+      phase += 0.002 * a.phase_rate;
+      if (phase >= 1.0) phase -= 1.0;
+    }
+    return eto;
+  };
+  double flex_start = 0.0;
+  EXPECT_EQ(eto_ticks(0.5, &flex_start), 0);
+  EXPECT_GT(eto_ticks(0.0, &flex_start), 0);
+  EXPECT_NEAR(flex_start, 0.05, 0.01);
+}
+
+TEST(Feedback, AFootStillOffTheGroundAtMidStanceStartsTheKneeFlexionThere) {
+  // Contact lost at 0.1 for the rest of stance: the leg is unloaded in the half where it should unload,
+  // so the knee flexes early, from mid-stance (0.25) rather than from the loss of contact.
+  const StepTiming t{0.5, 0.4, 0.9};
+  LegFeedback fb;
+  double phase = 0.0, first_flex_start = -1.0;
+  for (int tick = 0; tick < 1000; ++tick) {
+    const auto a = fb.update(phase, phase < 0.1 || phase >= 0.999, 0.002, t);
+    if (tick >= 500 && a.activity.early_toeoff && first_flex_start < 0.0) first_flex_start = a.knee_flex_start;
+    if (tick >= 500 && phase < 0.249) EXPECT_FALSE(a.activity.early_toeoff) << "at phase " << phase;
+    phase += 0.002 * a.phase_rate;
+    if (phase >= 1.0) phase -= 1.0;
+  }
+  EXPECT_NEAR(first_flex_start, 0.25, 0.005);
+}
+
 TEST(Feedback, AToeScuffingTheGroundJustAfterToeoffIsNoEarlyTouchdown) {
   // Lifts off at 0.5, touches again 10 ms later (0.51-0.53): a scuff, below etd_min_airborne_s (40 ms).
   const Counts scuff = run([](double phi) { return phi < 0.5 || (phi >= 0.51 && phi < 0.53); });

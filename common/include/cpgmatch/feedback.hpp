@@ -3,7 +3,8 @@
 // Each leg runs a small state machine over its CPG phase and its binary contact signal:
 //
 //   late touchdown  (LTD): stance has begun (phi in [0, D)) but the foot has not touched down yet.
-//                          The leg's phase is decelerated until contact ("wait for the ground").
+//                          The leg's phase is decelerated until contact ("wait for the ground"), for at
+//                          most late_touchdown_max_wait_s per stance; measured for as long as it lasts.
 //   early touchdown (ETD): the foot touches down during swing, after it had been airborne for at least
 //                          etd_min_airborne_s, while the knee is still flexed for ground clearance (more
 //                          than etd_min_knee_flexion_fraction of its amplitude, or before the flexion
@@ -13,7 +14,8 @@
 //                          on a fixed trajectory and makes the hip motor passive, so the leg springs absorb
 //                          the impact. The airborne time keeps a toe that scuffs the ground just after toe-off
 //                          (which is a late toe-off, not an impact) from firing the reflex.
-//   early toe-off   (ETO): contact is lost during stance before the knee was scheduled to flex.
+//   early toe-off   (ETO): contact is lost in the second half of stance (from mid-stance, where the leg
+//                          passes under the hip and starts to unload) before the knee was scheduled to flex.
 //                          Knee flexion starts at once instead of waiting for the feedforward schedule. If
 //                          contact returns before the scheduled flexion (the foot slipped or bounced, the leg
 //                          is loaded again) the early flexion is cancelled: flexing a loaded knee buckles it.
@@ -44,12 +46,12 @@ struct FeedbackConfig {
   bool late_toeoff_deceleration = false;  // LTO is always measured; this also slows the phase
   double late_touchdown_phase_rate = 0.1;  // phase speed factor while waiting for touchdown (0..1)
   // Longest a leg's phase is held back per stance while it waits for the ground, seconds; LTD is still
-  // *measured* for as long as the ground is missing. Unbounded by default, as the paper's "decelerate
-  // until contact". A physical case for a bound: a body falling onto the waiting leg drops
-  // g t^2 / 2 = 5 cm in 0.1 s, so a foot still in the air after that hangs because the other legs carry
-  // the body, and holding it only splits it from its diagonal partner (traced in docs/model.md). Measured
-  // with 0.1 s it did not pay off in studies (docs/model.md, "Known limits"), so it stays an option.
-  double late_touchdown_max_wait_s = std::numeric_limits<double>::infinity();
+  // *measured* for as long as the ground is missing (infinity: the paper's literal "until contact").
+  // Why 0.1 s: a body falling onto the waiting leg drops g t^2 / 2 = 5 cm in 0.1 s, so a foot still in
+  // the air after that hangs because the other legs carry the body, and holding it longer keeps the hip at
+  // its most forward angle, where the foot may never reach the ground, while its diagonal partner walks on
+  // (traced in docs/model.md). Measured in docs/model.md, "Feedback on random gaits".
+  double late_touchdown_max_wait_s = 0.1;
   double late_toeoff_phase_rate = 0.5;     // phase speed factor during LTO, when deceleration is on
   double reflex_duration_s = 0.12;         // knee pull-up reflex length, seconds
   double etd_min_airborne_s = 0.04;        // swing contact counts as ETD only after this long in the air, s
@@ -61,6 +63,13 @@ struct FeedbackConfig {
   // lifted it off again: a systematic double contact on most gaits (J_contact ~1, traced in docs/model.md).
   double etd_min_knee_flexion_fraction = 0.2;
   double reflex_knee_flexion_rad = 0.5;    // peak extra knee flexion of the reflex, radians
+  // Early toe-off counts only once the stance phase has reached this fraction of the duty factor (0.5:
+  // mid-stance, where the hip passes its offset). A toe-off is the foot leaving the ground as the leg
+  // unloads behind the hip; a contact lost earlier, with the leg still in front of the hip taking the
+  // body's weight, is a bounce or a stumble, and flexing that knee removes the support the body is falling
+  // onto (measured: docs/model.md, "Feedback on random gaits"). 0 is the window used before 2026-12-02:
+  // the whole stance before the scheduled knee flexion.
+  double eto_min_stance_fraction = 0.5;
   bool reflex_hip_passive = true;          // hip motor passive while the reflex runs
 
   // Everything off: the open-loop CPG (LTO is still measured).
