@@ -151,21 +151,35 @@ TEST(GaussianProcess, BatchPredictionEqualsSinglePrediction) {
   }
 }
 
+// A model of the size a paper study's GP reaches: n points uniform in the 6-D unit cube with a smooth
+// log-bowl cost and a little noise, hyperparameters fitted; for the factor-update tests. The generator
+// is returned too, to draw the test's further points from.
+struct FittedBowl {
+  std::mt19937_64 rng;
+  Eigen::MatrixXd X;
+  Eigen::VectorXd y;
+  GaussianProcess gp;
+};
+
+FittedBowl fitted_log_bowl_6d(unsigned seed, int n) {
+  FittedBowl f{std::mt19937_64(seed), Eigen::MatrixXd(n, 6), Eigen::VectorXd(n), GaussianProcess()};
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < 6; ++j) f.X(i, j) = unit(f.rng);
+    f.y[i] = std::log(0.1 + (f.X.row(i).array() - 0.4).square().sum()) + 0.01 * unit(f.rng);
+  }
+  f.gp.fit(f.X, f.y, /*optimise=*/true, f.rng);
+  return f;
+}
+
 TEST(GaussianProcess, AppendingPointsToTheFactorEqualsARefitOnTheExtendedData) {
   // A fitted 6-D model of 150 points, then the fake results of a batch: 60 pending points at once, then
   // one at a time (what ask() does); each step against refit_fixed() on the same data.
-  std::mt19937_64 rng(3);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   const int d = 6, n = 150;
-  Eigen::MatrixXd X(n, d);
-  Eigen::VectorXd y(n);
-  for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < d; ++j) X(i, j) = unit(rng);
-    y[i] = std::log(0.1 + (X.row(i).array() - 0.4).square().sum()) + 0.01 * unit(rng);
-  }
-  GaussianProcess grown;
-  grown.fit(X, y, /*optimise=*/true, rng);
-  ASSERT_EQ(grown.jitter(), 0.0);
+  FittedBowl bowl = fitted_log_bowl_6d(3, n);
+  ASSERT_EQ(bowl.gp.jitter(), 0.0);
+  auto& [rng, X, y, grown] = bowl;
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
   GaussianProcess refit = grown;
   Eigen::MatrixXd Xall = X;
   Eigen::VectorXd yall = y;
@@ -207,18 +221,11 @@ TEST(GaussianProcess, ACandidatePosteriorExtendedThroughAppendedPointsEqualsAFre
   // What ask() does for a batch: the posterior of 1000 candidates computed once, then extended by the rows
   // each appended lie adds to the factor. After every step it must equal predict_many() on refit_fixed()
   // of the same data (a fresh kernel, factorisation and solve), and at the start predict_many() exactly.
-  std::mt19937_64 rng(5);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   const int d = 6, n = 150;
-  Eigen::MatrixXd X(n, d);
-  Eigen::VectorXd y(n);
-  for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < d; ++j) X(i, j) = unit(rng);
-    y[i] = std::log(0.1 + (X.row(i).array() - 0.4).square().sum()) + 0.01 * unit(rng);
-  }
-  GaussianProcess grown;
-  grown.fit(X, y, /*optimise=*/true, rng);
-  ASSERT_EQ(grown.jitter(), 0.0);
+  FittedBowl bowl = fitted_log_bowl_6d(5, n);
+  ASSERT_EQ(bowl.gp.jitter(), 0.0);
+  auto& [rng, X, y, grown] = bowl;
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
   Eigen::MatrixXd C(d, 1000);
   for (int c = 0; c < C.cols(); ++c)
     for (int j = 0; j < d; ++j) C(j, c) = unit(rng);
