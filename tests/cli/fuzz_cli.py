@@ -20,7 +20,7 @@ templates = {
     "rollout": ["--entrain", "--eval", "--treadmill", "--seed", "--set", "--terrain", "--disable"],
     "analyze": ["--store", "--study", "--jitter"],
     "optimize": ["--budget", "--initial", "--seed", "--batch", "--timeout", "--acq", "--design", "--liar", "--cost-transform"],
-    "reproduce": ["--seeds", "--workers", "--jitter"],
+    "reproduce": ["--seeds", "--first-seed", "--workers", "--jitter"],
 }
 bad = 0
 with tempfile.TemporaryDirectory() as tmp:

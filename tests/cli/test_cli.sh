@@ -124,6 +124,8 @@ check "plot needs one source" expect_exit 2 "\-\-store" "$bin" plot
 check "plot unknown study" expect_exit 2 "\-\-study 999" "$bin" plot --store "$tmp/tiny/study.db" --study 999
 check "plot not a trace" expect_exit 2 "\-\-trace" "$bin" plot --trace "$tmp/tiny/trials.jsonl"
 check "reproduce bad seeds" expect_exit 2 "\-\-seeds" "$bin" reproduce --seeds 0
+check "reproduce bad first seed" expect_exit 2 "\-\-first-seed" "$bin" reproduce --first-seed -1
+check "reproduce first seed past the int range" expect_exit 2 "\-\-first-seed" "$bin" reproduce --first-seed 2147483647 --seeds 2
 if command -v gnuplot >/dev/null; then
   "$bin" plot --store "$tmp/tiny/study.db" --out "$tmp/figs" >"$tmp/plot.out"
   check "plot --store figures" test -s "$tmp/figs/fig5a.png" -a -s "$tmp/figs/fig6.svg"
@@ -131,15 +133,16 @@ if command -v gnuplot >/dev/null; then
   check "plot --trace figure" sh -c "head -c 4 '$tmp/figs/fig4.png' | grep -q PNG && grep -q '<svg' '$tmp/figs/fig4.svg'"
 fi
 
-# reproduce: two tiny replicates through the service, aggregated as mean ± sd.
-"$bin" reproduce --seeds 2 --config "$tmp/tiny.yaml" --workers 2 --out "$tmp/rep" --jitter 0 --quiet >"$tmp/rep.txt" 2>"$tmp/rep.err"
+# reproduce: two tiny replicates through the service (seeds 3 and 4), aggregated as mean ± sd.
+"$bin" reproduce --seeds 2 --first-seed 3 --config "$tmp/tiny.yaml" --workers 2 --out "$tmp/rep" --jitter 0 --quiet >"$tmp/rep.txt" 2>"$tmp/rep.err"
 check "reproduce replicates.json" python3 -c "
 import json; r=json.load(open('$tmp/rep/replicates.json')); s=r['statistics']
 assert r['replicates']==2 and s['rollouts']['n']==2 and s['rollouts']['mean']==6, s['rollouts']
 assert s['falls.total']['paper']==16 and len(r['reports'])==2"
 check "reproduce seeds differ" python3 -c "
 import json; r=json.load(open('$tmp/rep/replicates.json'))
-assert [x['name'] for x in r['reports']]==['tiny-seed-1','tiny-seed-2'], [x['name'] for x in r['reports']]"
+assert [x['name'] for x in r['reports']]==['tiny-seed-3','tiny-seed-4'], [x['name'] for x in r['reports']]"
+check "reproduce writes one folder per seed" test -s "$tmp/rep/seed-3/analysis.json" -a -s "$tmp/rep/seed-4/analysis.json"
 check "reproduce table" grep -q "mean ± sd" "$tmp/rep.txt"
 
 echo "$passed passed, $failed failed"

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <fstream>
 #include <iostream>
+#include <limits>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -40,15 +41,22 @@ std::string with_seed(const std::string& text, const std::string& source, int se
 void add_reproduce_command(CLI::App& app) {
   struct Options {
     int seeds = 5;
+    int first_seed = 1;  // seeds first_seed .. first_seed + seeds - 1: more replicates without rerunning 1..N
     LocalStudyFlags common;  // --config (its seed is replaced), --workers, --out, --jitter, --quiet
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand(
       "reproduce", "run the paper's study with seeds 1..N, each as `study run` does, and compare mean ± sd with the paper");
   cmd->add_option("--seeds", opts->seeds, "replicates, seeds 1..N (default 5)");
+  cmd->add_option("--first-seed", opts->first_seed,
+                  "first seed (default 1): seeds K..K+N-1, e.g. --first-seed 6 --seeds 5 adds seeds 6-10 to a run of 1-5");
   opts->common.add_to(*cmd, "results directory (default: results/reproduce-<time>); one folder per seed inside");
   cmd->callback([opts] {
     if (opts->seeds < 1) throw InputError(fmt::format("--seeds {}: must be >= 1", opts->seeds));
+    if (opts->first_seed < 0 || opts->first_seed > std::numeric_limits<int>::max() - opts->seeds + 1) {
+      throw InputError(fmt::format("--first-seed {}: must be in [0, {}] with --seeds {}", opts->first_seed,
+                                   std::numeric_limits<int>::max() - opts->seeds + 1, opts->seeds));
+    }
     const LocalStudyOptions base = opts->common.options();
     const bool quiet = base.quiet;
     const int jitter = opts->common.jitter;
@@ -57,16 +65,17 @@ void add_reproduce_command(CLI::App& app) {
 
     std::vector<analysis::StudyTrials> studies;
     std::vector<nlohmann::json> reports;
-    for (int seed = 1; seed <= opts->seeds; ++seed) {
+    for (int k = 1; k <= opts->seeds; ++k) {
+      const int seed = opts->first_seed + k - 1;
       LocalStudyOptions o = base;
       o.config_text = with_seed(base.config_text, base.config_source, seed);
       o.out = out / fmt::format("seed-{}", seed);
-      o.progress_label = fmt::format("replicate {}/{} (seed {}) ", seed, opts->seeds, seed);
+      o.progress_label = fmt::format("replicate {}/{} (seed {}) ", k, opts->seeds, seed);
       const LocalStudyResult run = run_local_study(o);
       const StudyAnalysis a = write_study_results(run, jitter, quiet);
       if (!quiet) {
-        fmt::print(stderr, "replicate {}/{}: best cost {:.3f} (rollout {}), {} falls, J_feedback ratio {:.3f}\n", seed,
-                   opts->seeds, a.report.best_cost, a.report.best_rollout, a.report.falls, a.report.feedback_ratio);
+        fmt::print(stderr, "replicate {}/{} (seed {}): best cost {:.3f} (rollout {}), {} falls, J_feedback ratio {:.3f}\n", k,
+                   opts->seeds, seed, a.report.best_cost, a.report.best_rollout, a.report.falls, a.report.feedback_ratio);
       }
       studies.push_back(a.trials);
       reports.push_back(a.json);
