@@ -54,7 +54,7 @@ void PhaseOscillatorNetwork::step(double dt_s, double frequency_hz, const PerLeg
       const double desired = gait_.phase_offsets[j] - gait_.phase_offsets[i];
       coupling += std::sin(kTwoPi * (phases_[j] - phases_[i] - desired));
     }
-    velocity[i] = std::clamp(rates[i], 0.0, 1.0) * frequency_hz + coupling_gain_ * coupling;
+    velocity[i] = std::max(0.0, std::clamp(rates[i], 0.0, 1.0) * frequency_hz + coupling_gain_ * coupling);
   }
   for (int i = 0; i < kNumLegs; ++i) {
     const double next = phases_[i] + dt_s * velocity[i];

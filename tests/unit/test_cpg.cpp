@@ -34,7 +34,7 @@ TEST(Cpg, FreeRunningPhaseAdvancesAtTheStepFrequency) {
   EXPECT_NEAR(net.phases()[0], 0.5, 1e-6);
 }
 
-TEST(Cpg, DecelerationSlowsOnlyTheDeceleratedLegWhileCouplingPullsItBack) {
+TEST(Cpg, ADeceleratedLegFallsOutOfLockAndTheCouplingPullsItBackAfterwards) {
   PhaseOscillatorNetwork net(Gait::named("trot"), 0.5);
   for (int i = 0; i < 50; ++i) net.step(0.002, 1.0, {0.1, 1, 1, 1});
   EXPECT_GT(net.locking_error(), 0.02);
@@ -59,6 +59,20 @@ TEST(Cpg, AHeldLegIsStillPulledByItsCouplingSoItsLagStaysBoundedAndTheOthersSlow
   const double other_advance = (net.cycles()[kFrontRight] - other_cycles_before) + net.phases()[kFrontRight] - other_phase_before;
   EXPECT_LT(other_advance, 1.9);  // the others walked slower than 1 Hz while it was held
   EXPECT_GT(net.phases()[kFrontLeft] + net.cycles()[kFrontLeft], 0.5);  // and the held leg was pulled along
+}
+
+TEST(Cpg, AHeldLegThatIsAheadWaitsInsteadOfRunningBackwards) {
+  // FL starts 0.1 cycle ahead of its place in the trot and is held (rate 0): the coupling pulls it back
+  // (velocity K * sum sin < 0), but a phase only waits; it never decreases and never wraps backwards.
+  PhaseOscillatorNetwork net(Gait::named("trot"), 2.0);
+  net.reset({0.1, 0.5, 0.5, 0.0});
+  double previous = net.phases()[kFrontLeft];
+  for (int i = 0; i < 200; ++i) {
+    net.step(0.002, 1.0, {0.0, 1, 1, 1});
+    EXPECT_GE(net.phases()[kFrontLeft], previous) << "step " << i;
+    previous = net.phases()[kFrontLeft];
+  }
+  EXPECT_EQ(net.cycles()[kFrontLeft], 0);
 }
 
 TEST(Cpg, UnknownGaitIsAnInputError) { EXPECT_THROW(Gait::named("gallop"), InputError); }

@@ -96,7 +96,7 @@ TEST(Feedback, EarlyTouchdownTriggersTheKneeReflexWithAPassiveHip) {
 }
 
 TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
-  // Contact lost at 0.25, before the knee was due to flex at 0.4.
+  // Contact lost at 0.3 (after mid-stance, 0.25), before the knee was due to flex at 0.4.
   CpgParameters p;
   p.duty_factor_front = 0.5;
   p.knee_phase_shift = 0.2;
@@ -106,7 +106,7 @@ TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
   double phase = 0.0, flex_start = -1.0;
   int eto = 0;
   for (int tick = 0; tick < 1000; ++tick) {
-    const bool contact = phase < 0.25 || phase >= 0.999;
+    const bool contact = phase < 0.3 || phase >= 0.999;
     const auto a = fb.update(phase, contact, 0.002, t);
     if (tick >= 500 && a.activity.early_toeoff) {
       ++eto;
@@ -117,24 +117,26 @@ TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
     if (phase >= 1.0) phase -= 1.0;
   }
   EXPECT_GT(eto, 0);
-  EXPECT_NEAR(flex_start, 0.25, 0.01);
+  EXPECT_NEAR(flex_start, 0.3, 0.01);
 }
 
 TEST(Feedback, EarlyToeoffIsCancelledWhenTheGroundComesBack) {
-  // Contact flickers off at 0.25 for 6 ms and returns (a slip): the leg is loaded again, so the early
+  // Contact flickers off at 0.3 for 6 ms and returns (a slip): the leg is loaded again, so the early
   // knee flexion must stop and the scheduled one (0.4) applies.
   const StepTiming t{0.5, 0.4, 0.9};
   LegFeedback fb;
   double phase = 0.0;
   int eto_after_return = 0, eto_during_gap = 0;
   for (int tick = 0; tick < 1000; ++tick) {
-    const bool gap = phase >= 0.25 && phase < 0.256;
+    const bool gap = phase >= 0.3 && phase < 0.306;
     const bool contact = phase < 0.5 && !gap;
     const auto a = fb.update(phase, contact, 0.002, t);
     if (tick >= 500) {
       eto_during_gap += gap && a.activity.early_toeoff;
-      eto_after_return += phase > 0.27 && phase < 0.4 && a.activity.early_toeoff;
-      if (phase > 0.27 && phase < 0.4) EXPECT_LT(a.knee_flex_start, 0.0) << "early flexion still on at " << phase;
+      eto_after_return += phase > 0.32 && phase < 0.4 && a.activity.early_toeoff;
+      if (phase > 0.32 && phase < 0.4) {
+        EXPECT_LT(a.knee_flex_start, 0.0) << "early flexion still on at " << phase;
+      }
     }
     phase += 0.002 * a.phase_rate;
     if (phase >= 1.0) phase -= 1.0;
@@ -182,7 +184,9 @@ TEST(Feedback, AFootStillOffTheGroundAtMidStanceStartsTheKneeFlexionThere) {
   for (int tick = 0; tick < 1000; ++tick) {
     const auto a = fb.update(phase, phase < 0.1 || phase >= 0.999, 0.002, t);
     if (tick >= 500 && a.activity.early_toeoff && first_flex_start < 0.0) first_flex_start = a.knee_flex_start;
-    if (tick >= 500 && phase < 0.249) EXPECT_FALSE(a.activity.early_toeoff) << "at phase " << phase;
+    if (tick >= 500 && phase < 0.249) {
+      EXPECT_FALSE(a.activity.early_toeoff) << "at phase " << phase;
+    }
     phase += 0.002 * a.phase_rate;
     if (phase >= 1.0) phase -= 1.0;
   }

@@ -3,11 +3,12 @@
 // This is the phase-space form of the modified Hopf oscillator used by Ruppert & Badri-Sproewitz (2022):
 // one phase per leg, phi_i in [0, 1) cycles, integrated as
 //
-//     dphi_i/dt = rate_i * ( f + K * sum_j sin(2 pi (phi_j - phi_i - d_ij)) )
+//     dphi_i/dt = max(0, rate_i * f + K * sum_j sin(2 pi (phi_j - phi_i - d_ij)))
 //
 // where f is the step frequency (Hz), K the coupling gain (1/s), d_ij = offset_j - offset_i the desired
-// phase difference from the gait's phase-offset vector, and rate_i in [0, 1] the feedback's phase
-// deceleration (1 = free running). A gait is therefore data: a vector of four phase offsets.
+// phase difference from the gait's phase-offset vector, and rate_i in [0, 1] the feedback's deceleration
+// of the node's own frequency (1 = free running; the coupling is not scaled, see step()). A phase never
+// runs backwards. A gait is therefore data: a vector of four phase offsets.
 //
 // Convention inside one leg's cycle: phi = 0 is the nominal touchdown, [0, D) is stance, [D, 1) swing,
 // with D the duty factor of that leg. The oscillator runs uniformly; the duty factor only shapes the
@@ -42,10 +43,12 @@ class PhaseOscillatorNetwork {
   void reset(const PerLeg<double>& phases);
 
   // Explicit Euler step of dt seconds; rates are the per-leg phase-deceleration factors in [0, 1]. A rate
-  // scales the node's own frequency only, dphi_i/dt = rate_i f + K sum_j sin(2 pi (phi_j - phi_i - psi_ij)):
+  // scales the node's own frequency only, dphi_i/dt = rate_i f + K sum_j sin(2 pi (phi_j - phi_i - psi_ij)),
+  // floored at 0: a held leg that is ahead of its partners waits for them instead of running backwards
+  // (a backward step across 0 would look like a new swing to the leg's feedback):
   // feedback modulates an oscillator, its coupling inputs stay, so a held leg is still pulled along by
-  // the others (for a trot its lag settles at asin((1 - rate) f / (4 K)) / 2 pi cycles, 1/12 for rate 0,
-  // f 1 Hz, K 0.5/s; unbounded only if (1 - rate) f > 4 K) and slows
+  // the others (for a trot its lag settles at asin((1 - rate) f / (4 K)) / 2 pi cycles: 0.074 for the
+  // shipped rate 0.1, 1/12 for rate 0, at f 1 Hz and K 0.5/s; unbounded only if (1 - rate) f > 4 K) and slows
   // them in turn. Scaling the coupling as well (before 2026-12-02) let a waiting leg drift out of the gait
   // without bound while its partners walked on (docs/model.md, "Feedback on random gaits").
   void step(double dt_s, double frequency_hz, const PerLeg<double>& rates);

@@ -14,8 +14,12 @@
 //                          on a fixed trajectory and makes the hip motor passive, so the leg springs absorb
 //                          the impact. The airborne time keeps a toe that scuffs the ground just after toe-off
 //                          (which is a late toe-off, not an impact) from firing the reflex.
-//   early toe-off   (ETO): contact is lost in the second half of stance (from mid-stance, where the leg
-//                          passes under the hip and starts to unload) before the knee was scheduled to flex.
+//   early toe-off   (ETO): the foot is off the ground in the second half of stance (from mid-stance, where
+//                          the leg passes under the hip and starts to unload; lost there, or lost earlier and
+//                          still not back) before the knee was scheduled to flex. A contact lost and regained
+//                          within the first half is a bounce: neither acted on nor counted here (J_contact
+//                          counts its extra contact changes). With knee_phase_shift >= 0.5 the knee is due to
+//                          flex by mid-stance anyway, so there is no early toe-off to act on.
 //                          Knee flexion starts at once instead of waiting for the feedforward schedule. If
 //                          contact returns before the scheduled flexion (the foot slipped or bounced, the leg
 //                          is loaded again) the early flexion is cancelled: flexing a loaded knee buckles it.
@@ -27,9 +31,9 @@
 //   late toe-off    (LTO): the foot is still on the ground after the nominal toe-off (phi >= D) and has
 //                          not lifted since. Always measured; decelerates the phase only if configured.
 //
-// The activity flags r(t) are what the cost's J_feedback integrates: they are true exactly while a
-// mechanism is correcting (LTD: waiting; ETD: reflex running; ETO: knee ahead of schedule;
-// LTO: contact held too long). A disabled mechanism is still *measured* only for LTO, as the paper does;
+// The activity flags r(t) are what the cost's J_feedback integrates: they are true while a mechanism is
+// correcting or its mismatch lasts (LTD: ground missing in stance, held back or not; ETD: reflex running;
+// ETO: knee ahead of schedule; LTO: contact held too long). A disabled mechanism is still *measured* only for LTO, as the paper does;
 // the others neither act nor report when switched off (for ablations).
 #pragma once
 
@@ -46,7 +50,8 @@ struct FeedbackConfig {
   bool late_toeoff_deceleration = false;  // LTO is always measured; this also slows the phase
   double late_touchdown_phase_rate = 0.1;  // phase speed factor while waiting for touchdown (0..1)
   // Longest a leg's phase is held back per stance while it waits for the ground, seconds; LTD is still
-  // *measured* for as long as the ground is missing (infinity: the paper's literal "until contact").
+  // *measured* for as long as the ground is missing. 10 (the largest the YAML accepts; a stance is far
+  // shorter) is the paper's literal "until contact".
   // Why 0.1 s: a body falling onto the waiting leg drops g t^2 / 2 = 5 cm in 0.1 s, so a foot still in
   // the air after that hangs because the other legs carry the body, and holding it longer keeps the hip at
   // its most forward angle, where the foot may never reach the ground, while its diagonal partner walks on
@@ -86,7 +91,7 @@ struct FeedbackActivity {
 
 // What feedback asks of the leg's trajectory generator and oscillator for this control tick.
 struct FeedbackAction {
-  double phase_rate = 1.0;          // multiplies the oscillator's phase velocity
+  double phase_rate = 1.0;          // multiplies the oscillator's own frequency (not its coupling)
   double extra_knee_flexion = 0.0;  // rad, added to the feedforward knee target (reflex)
   double knee_flex_start = -1.0;    // phase; >= 0 replaces the scheduled knee flexion start (ETO)
   bool hip_passive = false;
