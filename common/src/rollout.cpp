@@ -1,9 +1,11 @@
 #include "cpgmatch/rollout.hpp"
 
+#include <numbers>
 #include <chrono>
 #include <cmath>
 #include <fstream>
 #include <memory>
+#include <numbers>
 
 #include <fmt/format.h>
 
@@ -129,10 +131,18 @@ RolloutSettings load_rollout_settings(const std::string& path) {
     } catch (const InputError& e) {
       c.fail("gait", e.what());
     }
-    cc.coupling_gain_per_s = c.get_double("coupling_gain_per_s", cc.coupling_gain_per_s);
+    cc.coupling_gain_per_s = c.get_double_in("coupling_gain_per_s", cc.coupling_gain_per_s, 0.0, 1000.0);
     cc.control_rate_hz = c.get_double("control_rate_hz", cc.control_rate_hz);
     cc.startup_ramp_s = c.get_double("startup_ramp_s", cc.startup_ramp_s);
     if (cc.control_rate_hz <= 0.0) c.fail("control_rate_hz", "must be > 0");
+    // A phase error of four all-to-all coupled legs decays as exp(-8 pi K t); the CPG's explicit Euler
+    // step (one control period) follows it without oscillating only while 8 pi K dt <= 1: K <= 20/s at
+    // the paper's 500 Hz. Beyond, the phases ring, and above twice that they diverge.
+    const double max_coupling = cc.control_rate_hz / (8.0 * std::numbers::pi);
+    if (cc.coupling_gain_per_s > max_coupling) {
+      c.fail("coupling_gain_per_s", fmt::format("must be <= control_rate_hz / (8 pi) = {:.3g} 1/s for a stable CPG step, got {}",
+                                                max_coupling, cc.coupling_gain_per_s));
+    }
     if (c.has("feedback")) {
       const YamlReader f = c.child("feedback");
       f.reject_unknown_keys({"late_touchdown", "early_touchdown", "early_toeoff", "late_toeoff_deceleration",

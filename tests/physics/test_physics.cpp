@@ -272,5 +272,24 @@ TEST(Physics, TheShippedSettingsBoundTheLateTouchdownHoldGateEarlyToeoffAndRefus
   }
 }
 
+TEST(Physics, ACouplingTooStrongForTheControlRateIsRefusedByName) {
+  // 8 pi K dt <= 1: at 500 Hz up to 19.9/s; at 100 Hz the same 10/s is already too strong.
+  const std::string path = ::testing::TempDir() + "/coupling.yaml";
+  auto load_with = [&](double gain, double rate_hz) {
+    std::ofstream(path) << "controller:\n  control_rate_hz: " << rate_hz << "\n  coupling_gain_per_s: " << gain << "\n";
+    return load_rollout_settings(path);
+  };
+  EXPECT_DOUBLE_EQ(load_with(10.0, 500.0).controller.coupling_gain_per_s, 10.0);
+  try {
+    (void)load_with(10.0, 100.0);
+    FAIL() << "expected InputError";
+  } catch (const cpgmatch::InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("coupling.yaml:3"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("coupling_gain_per_s"), std::string::npos) << msg;
+  }
+  EXPECT_THROW((void)load_with(-0.5, 500.0), cpgmatch::InputError);
+}
+
 }  // namespace
 }  // namespace cpgmatch::sim
