@@ -48,8 +48,8 @@ msg::Candidate candidate(std::uint32_t trial, const std::string& worker) {
 }
 
 TEST(Transport, ContentFilterDeliversOnlyTheWorkersOwnCandidates) {
-  Participant optimizer(ParticipantConfig{35, "test-optimizer", true});
-  Participant worker(ParticipantConfig{35, "test-worker", true});
+  Participant optimizer(ParticipantConfig::basic(35, "test-optimizer", true));
+  Participant worker(ParticipantConfig::basic(35, "test-worker", true));
   Inbox<msg::Candidate> inbox;
   Reader<msg::Candidate> reader(worker, "candidates_for_a", "worker_id = %0", {"'a'"},
                                 [&](const msg::Candidate& c) { inbox.push(c); });
@@ -67,7 +67,7 @@ TEST(Transport, ContentFilterDeliversOnlyTheWorkersOwnCandidates) {
 }
 
 TEST(Transport, LateReaderGetsTransientLocalStatePerInstance) {
-  Participant optimizer(ParticipantConfig{36, "test-optimizer", true});
+  Participant optimizer(ParticipantConfig::basic(36, "test-optimizer", true));
   Writer<msg::StudyState> writer(optimizer);
   for (std::uint32_t study = 1; study <= 20; ++study) {  // more than Fast DDS's default of 10 instances
     msg::StudyState s;
@@ -77,7 +77,7 @@ TEST(Transport, LateReaderGetsTransientLocalStatePerInstance) {
     s.completed(study * 3);  // the newer sample replaces the older one
     ASSERT_TRUE(writer.write(s));
   }
-  Participant client(ParticipantConfig{36, "test-client", true});
+  Participant client(ParticipantConfig::basic(36, "test-client", true));
   Inbox<msg::StudyState> inbox;
   Reader<msg::StudyState> reader(client, [&](const msg::StudyState& s) { inbox.push(s); });
   ASSERT_TRUE(inbox.wait_for(20, 10s));
@@ -88,8 +88,8 @@ TEST(Transport, LateReaderGetsTransientLocalStatePerInstance) {
 }
 
 TEST(Transport, ReaderHearsWhenAnInstanceIsUnregistered) {
-  Participant a(ParticipantConfig{37, "test-worker", true});
-  Participant b(ParticipantConfig{37, "test-optimizer", true});
+  Participant a(ParticipantConfig::basic(37, "test-worker", true));
+  Participant b(ParticipantConfig::basic(37, "test-optimizer", true));
   Inbox<msg::WorkerAnnouncement> alive;
   Inbox<msg::WorkerAnnouncement> gone;
   Reader<msg::WorkerAnnouncement> reader(

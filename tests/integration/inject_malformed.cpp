@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
   const int domain = std::atoi(argv[1]);
   const auto study = static_cast<std::uint32_t>(std::atoi(argv[2]));
   const std::string target = argv[3];
-  transport::Participant p(transport::ParticipantConfig{domain, "malformed-injector", true});
+  transport::Participant p(transport::ParticipantConfig::basic(domain, "malformed-injector", true));
   transport::Writer<msg::RolloutReport> reports(p);
   transport::Writer<msg::WorkerAnnouncement> workers(p);
   transport::Writer<msg::Candidate> candidates(p);

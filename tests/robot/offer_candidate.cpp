@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   const auto trial = static_cast<std::uint32_t>(std::stoul(argv[3]));
   constexpr std::uint64_t kStore = 0x6573746f70ull;  // no optimizer's store: the optimizer ignores the report
   constexpr std::uint32_t kStudy = 9999;
-  transport::Participant p(transport::ParticipantConfig{std::atoi(argv[1]), "candidate-offer", true, {}});
+  transport::Participant p(transport::ParticipantConfig::basic(std::atoi(argv[1]), "candidate-offer", true));
   std::mutex mutex;
   std::optional<msg::RolloutReport> got;
   transport::Reader<msg::RolloutReport> reports(p, [&](const msg::RolloutReport& r) {

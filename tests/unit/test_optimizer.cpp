@@ -321,7 +321,9 @@ TEST(Optimizer, TheLastObservationOfTheBudgetIsNotFittedFor) {
   for (int i = 0; i < 8; ++i) {
     const auto x = opt.ask(1)[0];
     opt.tell(x, tf.f(x));
-    if (i == 6) EXPECT_EQ(opt.model_state().fits, 3);  // fits after observations 5, 6 and 7
+    if (i == 6) {
+      EXPECT_EQ(opt.model_state().fits, 3);  // fits after observations 5, 6 and 7
+    }
   }
   EXPECT_EQ(opt.model_state().fits, 3);  // none for the 8th: nothing will be asked any more
 }

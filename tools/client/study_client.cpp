@@ -20,7 +20,7 @@ namespace cpgmatch::client {
 
 struct StudyClient::Impl {
   Impl(int domain, bool localhost_only, bool read_trials)
-      : participant(dds::ParticipantConfig{domain, "cpgmatch-cli", localhost_only}),
+      : participant(dds::ParticipantConfig::basic(domain, "cpgmatch-cli", localhost_only)),
         client_id(fmt::format("cli-{}-{}", getpid(), std::random_device{}())) {
     state_reader = std::make_unique<dds::Reader<msg::StudyState>>(participant, [this](const msg::StudyState& s) {
       std::lock_guard<std::mutex> lock(mutex);

@@ -49,7 +49,7 @@ double unix_now_s() {
 void send(const EstopOptions& o) {
   runtime::apply_dds_flags(o.service.dds);
   const int domain = o.service.resolved_domain();
-  dds::Participant participant(dds::ParticipantConfig{domain, "cpgmatch-estop", o.service.localhost_only, {}});
+  dds::Participant participant(dds::ParticipantConfig::basic(domain, "cpgmatch-estop", o.service.localhost_only));
   dds::Writer<msg::EmergencyStop> writer(participant);
   const auto timeout = std::chrono::milliseconds(std::llround(o.service.timeout_s * 1000));
   if (!writer.matched().wait_for(1, timeout)) {

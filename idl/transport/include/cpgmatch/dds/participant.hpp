@@ -17,6 +17,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
@@ -50,6 +51,15 @@ struct ParticipantConfig {
   // Called (on a DDS thread) when a remote participant's announced identity is refused (see
   // authenticated_common_name), with its GUID prefix and the reason.
   std::function<void(const std::string& what)> on_identity_refused;
+
+  // The common case: a participant on `domain` called `name`, without callbacks or identity tracking.
+  static ParticipantConfig basic(int domain, std::string name, bool localhost_only) {
+    ParticipantConfig c;
+    c.domain = domain;
+    c.name = std::move(name);
+    c.localhost_only = localhost_only;
+    return c;
+  }
 };
 
 // Where a sample came from: the GUID prefix of the writing participant.
