@@ -1,6 +1,5 @@
 #include "cpgmatch/rollout.hpp"
 
-#include <numbers>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -140,8 +139,9 @@ RolloutSettings load_rollout_settings(const std::string& path) {
     // the paper's 500 Hz. Beyond, the phases ring, and above twice that they diverge.
     const double max_coupling = cc.control_rate_hz / (8.0 * std::numbers::pi);
     if (cc.coupling_gain_per_s > max_coupling) {
-      c.fail("coupling_gain_per_s", fmt::format("must be <= control_rate_hz / (8 pi) = {:.3g} 1/s for a stable CPG step, got {}",
-                                                max_coupling, cc.coupling_gain_per_s));
+      c.fail("coupling_gain_per_s",
+             fmt::format("must be <= control_rate_hz / (8 pi) = {:.3g} 1/s for a stable CPG step, got {}", max_coupling,
+                         cc.coupling_gain_per_s));
     }
     if (c.has("feedback")) {
       const YamlReader f = c.child("feedback");
@@ -163,7 +163,8 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       fb.etd_min_airborne_s = f.get_double("etd_min_airborne_s", fb.etd_min_airborne_s);
       fb.etd_min_knee_flexion_fraction =
           f.get_double_in("etd_min_knee_flexion_fraction", fb.etd_min_knee_flexion_fraction, 0.0, 1.0);
-      fb.eto_min_stance_fraction = f.get_double_in("eto_min_stance_fraction", fb.eto_min_stance_fraction, 0.0, 1.0);
+      fb.eto_min_stance_fraction =
+          f.get_double_in("eto_min_stance_fraction", fb.eto_min_stance_fraction, 0.0, 1.0);
       // Up to 10 s: a stance lasts well under that, so 10 is the paper's literal "until contact".
       fb.late_touchdown_max_wait_s =
           f.get_double_in("late_touchdown_max_wait_s", fb.late_touchdown_max_wait_s, 0.0, 10.0);

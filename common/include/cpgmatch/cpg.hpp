@@ -42,15 +42,15 @@ class PhaseOscillatorNetwork {
   // Starts from arbitrary phases (used by tests of the locking dynamics).
   void reset(const PerLeg<double>& phases);
 
-  // Explicit Euler step of dt seconds; rates are the per-leg phase-deceleration factors in [0, 1]. A rate
-  // scales the node's own frequency only, dphi_i/dt = rate_i f + K sum_j sin(2 pi (phi_j - phi_i - psi_ij)),
-  // floored at 0: a held leg that is ahead of its partners waits for them instead of running backwards
-  // (a backward step across 0 would look like a new swing to the leg's feedback):
-  // feedback modulates an oscillator, its coupling inputs stay, so a held leg is still pulled along by
-  // the others (for a trot its lag settles at asin((1 - rate) f / (4 K)) / 2 pi cycles: 0.074 for the
-  // shipped rate 0.1, 1/12 for rate 0, at f 1 Hz and K 0.5/s; unbounded only if (1 - rate) f > 4 K) and slows
-  // them in turn. Scaling the coupling as well (before 2026-12-02) let a waiting leg drift out of the gait
-  // without bound while its partners walked on (docs/model.md, "Feedback on random gaits").
+  // Explicit Euler step of dt seconds; rates are the per-leg phase-deceleration factors in [0, 1].
+  // A rate scales the node's own frequency only: dphi_i/dt = rate_i f + K sum_j sin(2 pi (phi_j - phi_i - psi_ij)).
+  // Feedback modulates an oscillator and its coupling inputs stay, so a held leg is still pulled along by
+  // the others and slows them in turn. For a trot its lag settles at asin((1 - rate) f / (4 K)) / 2 pi
+  // cycles (0.074 at the shipped rate 0.1, 1/12 at rate 0, for f 1 Hz and K 0.5/s; unbounded only if
+  // (1 - rate) f > 4 K). Scaling the coupling as well (before 2026-12-02) let a waiting leg drift out of
+  // the gait without bound while its partners walked on (docs/model.md, "Feedback on random gaits").
+  // The velocity is floored at 0: a held leg that is ahead of its partners waits for them instead of
+  // running backwards (a backward step across 0 would look like a new swing to the leg's feedback).
   void step(double dt_s, double frequency_hz, const PerLeg<double>& rates);
 
   const PerLeg<double>& phases() const { return phases_; }

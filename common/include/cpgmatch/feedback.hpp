@@ -16,13 +16,13 @@
 //                          (which is a late toe-off, not an impact) from firing the reflex.
 //   early toe-off   (ETO): the foot is off the ground in the second half of stance (from mid-stance, where
 //                          the leg passes under the hip and starts to unload; lost there, or lost earlier and
-//                          still not back) before the knee was scheduled to flex. A contact lost and regained
+//                          still not back) before the knee was scheduled to flex. Knee flexion starts at once
+//                          instead of waiting for the feedforward schedule. If contact returns before the
+//                          scheduled flexion (the foot slipped or bounced, the leg is loaded again) the early
+//                          flexion is cancelled: flexing a loaded knee buckles it. A contact lost and regained
 //                          within the first half is a bounce: neither acted on nor counted here (J_contact
 //                          counts its extra contact changes). With knee_phase_shift >= 0.5 the knee is due to
 //                          flex by mid-stance anyway, so there is no early toe-off to act on.
-//                          Knee flexion starts at once instead of waiting for the feedforward schedule. If
-//                          contact returns before the scheduled flexion (the foot slipped or bounced, the leg
-//                          is loaded again) the early flexion is cancelled: flexing a loaded knee buckles it.
 //
 // Against the paper's Fig. 2d (one step cycle in phase, stance [0, D) shaded): LTD is the red segment at the
 // start of stance, ETO the green one inside stance before the knee phase shift, LTO the yellow one after the
@@ -33,11 +33,9 @@
 //
 // The activity flags r(t) are what the cost's J_feedback integrates: they are true while a mechanism is
 // correcting or its mismatch lasts (LTD: ground missing in stance, held back or not; ETD: reflex running;
-// ETO: knee ahead of schedule; LTO: contact held too long). A disabled mechanism is still *measured* only for LTO, as the paper does;
-// the others neither act nor report when switched off (for ablations).
+// ETO: knee ahead of schedule; LTO: contact held too long). A disabled mechanism is still *measured* only
+// for LTO, as the paper does; the others neither act nor report when switched off (for ablations).
 #pragma once
-
-#include <limits>
 
 #include "cpgmatch/cpg.hpp"
 
