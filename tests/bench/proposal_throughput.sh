@@ -32,6 +32,7 @@ if ((${#rows[@]} == 0)); then
 fi
 work=$(mktemp -d /tmp/cpgmatch-bench.XXXXXX)
 domain=${BENCH_DOMAIN:-70}
+row_number=0
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; rm -rf "$work"; }
 trap cleanup EXIT
@@ -39,7 +40,9 @@ source "$(dirname "$0")/lib.sh"
 
 run_row() {  # run_row STUDIES WORKERS SLOTS DELAY_MS THREADS
   local studies=$1 workers=$2 slots=$3 delay=$4 threads=$5
-  local tag="s${studies}w${workers}x${slots}d${delay}t${threads}"
+  ((++row_number))
+  # The row number keeps a repeated row (e.g. 20:8:16:400:2 twice) off the store and study files of the first.
+  local tag="r${row_number}s${studies}w${workers}x${slots}d${delay}t${threads}"
   local store="$work/$tag.db" log="$work/$tag.opt.log"
   ((++domain))
   "$bin/cpgmatch-optimizer" --domain "$domain" --store "$store" --localhost-only --model-threads "$threads" \
