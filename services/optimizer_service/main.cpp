@@ -88,7 +88,8 @@ void dispatch(Coordinator& coordinator, Event& event) {
   } catch (const study::StoreWriteError&) {
     throw;  // disk full, read-only store: stop and say so (run_reporting_errors)
   } catch (const std::exception& e) {
-    spdlog::error("event dropped: {}", e.what());  // a sample that slipped past validation must not take the service down
+    // A sample that slipped past validation must not take the service down.
+    spdlog::error("event dropped: {}", e.what());
   }
 }
 

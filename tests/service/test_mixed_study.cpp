@@ -106,6 +106,18 @@ class MixedStudyTest : public ::testing::Test {
     heartbeat();
     coordinator_->tick(now_ += 0.2);
   }
+  // Submits kMixedStudy, runs it for 20 rounds and returns what the store then holds: a finished study.
+  study::StoredStudy run_mixed_study_to_the_end() {
+    const int id = submit(kMixedStudy);
+    run(20);
+    const auto s = store_->load(id);
+    if (!s) {
+      ADD_FAILURE() << "study " << id << " is not in the store";
+      return {};
+    }
+    EXPECT_EQ(s->state, "done") << s->message;
+    return *s;
+  }
   std::vector<const study::StoredTrial*> phase(const study::StoredStudy& s, const std::string& p) {
     std::vector<const study::StoredTrial*> out;
     for (const auto& t : s.trials) {
@@ -126,13 +138,9 @@ class MixedStudyTest : public ::testing::Test {
 };
 
 TEST_F(MixedStudyTest, ExplorationGoesToSimulationAndTheValidationSetsToHardwareAroundTheAnswer) {
-  const int id = submit(kMixedStudy);
-  run(20);
-  const auto s = store_->load(id);
-  ASSERT_TRUE(s);
-  EXPECT_EQ(s->state, "done") << s->message;
-  const auto explored = phase(*s, "exploration");
-  const auto validated = phase(*s, "validation");
+  const study::StoredStudy s = run_mixed_study_to_the_end();
+  const auto explored = phase(s, "exploration");
+  const auto validated = phase(s, "validation");
   ASSERT_EQ(explored.size(), 6u);
   ASSERT_EQ(validated.size(), 4u);
   for (const auto* t : explored) EXPECT_EQ(t->worker_id, "sim") << "trial " << t->trial_id;
@@ -149,7 +157,7 @@ TEST_F(MixedStudyTest, ExplorationGoesToSimulationAndTheValidationSetsToHardware
   EXPECT_EQ(last.completed(), 10u);
   ASSERT_TRUE(last.has_recommendation());
   const int centre_trial = static_cast<int>(last.recommended_trial());
-  const Eigen::VectorXd centre = s->trials.at(static_cast<std::size_t>(centre_trial)).x;
+  const Eigen::VectorXd centre = s.trials.at(static_cast<std::size_t>(centre_trial)).x;
   const auto cfg = study::load_study_config_text(kMixedStudy, "s.yaml");
   for (const auto* t : validated) {
     for (int d = 0; d < centre.size(); ++d) {
@@ -164,12 +172,8 @@ TEST_F(MixedStudyTest, TheValidationReachesTheRobotWhileManySimulationSlotsSitId
   // More idle simulation slots than candidates a tick may write (max_issues_per_tick): the cap counts
   // candidates written, not slots offered, so the hardware sets still go out.
   sim_slots_ = 3 * CoordinatorOptions{}.max_issues_per_tick;
-  const int id = submit(kMixedStudy);
-  run(20);
-  const auto s = store_->load(id);
-  ASSERT_TRUE(s);
-  EXPECT_EQ(s->state, "done") << s->message;
-  const auto validated = phase(*s, "validation");
+  const study::StoredStudy s = run_mixed_study_to_the_end();
+  const auto validated = phase(s, "validation");
   ASSERT_EQ(validated.size(), 4u);
   for (const auto* t : validated) EXPECT_EQ(t->worker_id, "robot") << "trial " << t->trial_id;
 }

@@ -56,7 +56,8 @@ TEST(Cpg, AHeldLegIsStillPulledByItsCouplingSoItsLagStaysBoundedAndTheOthersSlow
   }
   EXPECT_GT(worst_lock, 0.02);  // the held leg does fall behind...
   EXPECT_LT(worst_lock, 0.15);  // ...by less than a sixth of a cycle
-  const double other_advance = (net.cycles()[kFrontRight] - other_cycles_before) + net.phases()[kFrontRight] - other_phase_before;
+  const double other_advance =
+      (net.cycles()[kFrontRight] - other_cycles_before) + net.phases()[kFrontRight] - other_phase_before;
   EXPECT_LT(other_advance, 1.9);  // the others walked slower than 1 Hz while it was held
   EXPECT_GT(net.phases()[kFrontLeft] + net.cycles()[kFrontLeft], 0.5);  // and the held leg was pulled along
 }
