@@ -118,11 +118,11 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
   }
 
   if (reflex_time_left_ > 0.0) {
-    // Knee pull-up on a fixed half-sine trajectory; the hip lets the springs take the impact.
+    // Knee pull-up on a fixed half-sine trajectory; the hip lets the springs take the impact, then drives on.
     const double elapsed = config_.reflex_duration_s - reflex_time_left_;
     const double u = std::clamp(elapsed / config_.reflex_duration_s, 0.0, 1.0);
     action.extra_knee_flexion = config_.reflex_knee_flexion_rad * std::sin(std::numbers::pi * u);
-    action.hip_passive = config_.reflex_hip_passive;
+    action.hip_passive = config_.reflex_hip_passive && elapsed < config_.reflex_hip_passive_s;
     action.activity.early_touchdown = true;
     reflex_time_left_ -= dt_s;
   }

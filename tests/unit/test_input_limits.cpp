@@ -1,9 +1,11 @@
 // Bad input is refused at the door with the field (and file:line) named: study files, YAML keys, names.
+#include <fstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/rollout.hpp"
 #include "cpgmatch/study/study_config.hpp"
 #include "cpgmatch/text.hpp"
 #include "cpgmatch/yaml_reader.hpp"
@@ -62,6 +64,44 @@ TEST(InputLimits, DuplicateAndNonScalarKeysAreRefusedWithTheirLine) {
   const std::string nonscalar = study_error("name: a\n[1, 2]: 3\n");
   EXPECT_NE(nonscalar.find("s.yaml:2"), std::string::npos) << nonscalar;
   EXPECT_NE(nonscalar.find("plain names"), std::string::npos) << nonscalar;
+}
+
+// The message of the InputError a rollout settings file raises ("" when it loads).
+std::string settings_error(const std::string& yaml) {
+  const std::string path = ::testing::TempDir() + "/settings.yaml";
+  std::ofstream(path) << yaml;
+  try {
+    (void)load_rollout_settings(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(InputLimits, EveryNumberInTheRolloutSettingsHasARange) {
+  // Each of these used to load: a controller at 1e12 Hz or a 1e9-s reflex never ends a rollout, and a
+  // negative cost weight rewards the very thing its term penalises.
+  const struct {
+    const char* yaml;
+    const char* field;
+  } bad[] = {
+      {"entrain_s: 1.0e12\n", "entrain_s"},
+      {"controller: {control_rate_hz: 1.0e12}\n", "control_rate_hz"},
+      {"controller: {startup_ramp_s: -1}\n", "startup_ramp_s"},
+      {"controller: {feedback: {reflex_duration_s: 1.0e9}}\n", "reflex_duration_s"},
+      {"controller: {feedback: {reflex_knee_flexion_rad: 100}}\n", "reflex_knee_flexion_rad"},
+      {"controller: {feedback: {late_toeoff_phase_rate: 2}}\n", "late_toeoff_phase_rate"},
+      {"cost: {weights: {pitch: -1}}\n", "pitch"},
+      {"cost: {fall_max_abs_pitch_rad: 7}\n", "fall_max_abs_pitch_rad"},
+      {"cost: {fall_cost_per_lost_fraction: -5}\n", "fall_cost_per_lost_fraction"},
+      {"cost: {min_distance_m: 0}\n", "min_distance_m"},
+  };
+  for (const auto& b : bad) {
+    const std::string e = settings_error(b.yaml);
+    EXPECT_NE(e.find(b.field), std::string::npos) << b.yaml << " -> " << e;
+    EXPECT_NE(e.find("settings.yaml:1"), std::string::npos) << e;
+  }
+  EXPECT_EQ(settings_error("controller: {feedback: {reflex_duration_s: 1.0, reflex_knee_flexion_rad: 0}}\n"), "");
 }
 
 TEST(Text, Utf8Validation) {

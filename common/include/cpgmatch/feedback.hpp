@@ -11,9 +11,11 @@
 //                          peak). A contact with the leg re-extended for landing, just before the
 //                          overswing point, is the touchdown Fig. 2d expects at delta_overSwing, arriving
 //                          a few milliseconds early: stance, not a stumble. Triggers a knee pull-up reflex
-//                          on a fixed trajectory and makes the hip motor passive, so the leg springs absorb
-//                          the impact. The airborne time keeps a toe that scuffs the ground just after toe-off
-//                          (which is a late toe-off, not an impact) from firing the reflex.
+//                          on a fixed trajectory and makes the hip motor passive for the impact (the
+//                          first reflex_hip_passive_s), so the leg springs absorb it; then the hip drives the
+//                          swing on while the knee is still pulled up. The airborne time keeps a toe that
+//                          scuffs the ground just after toe-off (which is a late toe-off, not an impact) from
+//                          firing the reflex.
 //   early toe-off   (ETO): the foot is off the ground in the second half of stance (from mid-stance, where
 //                          the leg passes under the hip and starts to unload; lost there, or lost earlier and
 //                          still not back) before the knee was scheduled to flex. Knee flexion starts at once
@@ -73,7 +75,18 @@ struct FeedbackConfig {
   // onto (measured: docs/model.md, "Feedback on random gaits"). 0 is the window used before 2026-12-02:
   // the whole stance before the scheduled knee flexion.
   double eto_min_stance_fraction = 0.5;
-  bool reflex_hip_passive = true;          // hip motor passive while the reflex runs
+  // The hip motor is passive ("disabled from interfering in the passive impact mitigation of the mechanical
+  // leg springs", paper) for the first reflex_hip_passive_s of the reflex, then drives its swing again.
+  // Why 0.04 s: that is the impact, the leg spring's compression under a leg's share of the body,
+  // a quarter period pi/2 sqrt(m/k) = pi/2 sqrt(1 kg / 1.5 kN/m) = 41 ms (knee spring 15 N m/rad on the
+  // leg's ~0.1 m lever; configs/model/morti.yaml). After it the reflex's job is ground clearance, and a
+  // foot lifted over an obstacle must also keep moving forward: in animals the stumbling corrective
+  // reaction flexes the knee *and* keeps flexing the hip (Forssberg 1979). A hip left passive for the
+  // whole reflex lets the ground drag the leg back, and the leg lands far behind its target.
+  // Measured in docs/model.md ("Feedback on perturbed ground"). reflex_duration_s or more: passive for the
+  // whole reflex (this project's reading until 2026-12-02); 0, or reflex_hip_passive false: always driven.
+  double reflex_hip_passive_s = 0.04;
+  bool reflex_hip_passive = true;  // false: the hip keeps driving during the reflex (ablation)
 
   // Everything off: the open-loop CPG (LTO is still measured).
   static FeedbackConfig none();
