@@ -285,7 +285,7 @@ TEST(Physics, ModelFileErrorsNameFileLineAndField) {
   }
 }
 
-TEST(Physics, TheShippedSettingsBoundTheLateTouchdownHoldGateEarlyToeoffAndRefuseABadBound) {
+TEST(Physics, TheShippedSettingsMatchTheLibraryDefaultsAndABadBoundIsRefused) {
   // The file and the library defaults agree (a robot agent built without the file behaves the same).
   const RolloutSettings shipped = load_rollout_settings(default_rollout_settings_path());
   const FeedbackConfig library;
@@ -293,6 +293,8 @@ TEST(Physics, TheShippedSettingsBoundTheLateTouchdownHoldGateEarlyToeoffAndRefus
   EXPECT_DOUBLE_EQ(library.late_touchdown_max_wait_s, 0.1);
   EXPECT_DOUBLE_EQ(shipped.controller.feedback.eto_min_stance_fraction, 0.5);
   EXPECT_DOUBLE_EQ(library.eto_min_stance_fraction, 0.5);
+  EXPECT_DOUBLE_EQ(shipped.controller.feedback.reflex_hip_passive_s, 0.04);
+  EXPECT_DOUBLE_EQ(library.reflex_hip_passive_s, 0.04);
   const std::string path = ::testing::TempDir() + "/bad_settings.yaml";
   {
     std::ofstream f(path);
