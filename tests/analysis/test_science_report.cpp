@@ -52,6 +52,34 @@ TEST(ScienceReport, FallsSplitAtTheInitialDesign) {
   EXPECT_EQ(r.falls_after, 1);    // rollout 7
 }
 
+TEST(ScienceReport, FallsAfterTheDesignAreLocatedAtTheBoundsOrNextToTheBest) {
+  // Two parameters, a in [0, 1] and b in [0, 2]; 2 initial rollouts. In the unit cube: best so far is
+  // (0.4, 0.5) until rollout 4 (0.45, 0.55) beats it.
+  auto at = [](Trial t, double a, double b) {
+    t.params = {{"a", a}, {"b", b}, {"frequency", 1.0}};  // a fixed parameter has no bounds: ignored
+    return t;
+  };
+  StudyTrials s;
+  s.initial_points = 2;
+  s.bounds = {{"a", {0.0, 1.0}}, {"b", {0.0, 2.0}}};
+  Trial broken = walked(3, 0.1, 0.1, 1.0, 0.3);
+  broken.ok = false;  // did not run: neither a fall nor a walk, and never the best
+  s.trials = {at(walked(0, 1.0, 0.1, 1.0, 0.3), 0.5, 1.0), at(walked(1, 0.8, 0.1, 1.0, 0.3), 0.4, 1.0),
+              at(fallen(2, 9.0), 1.0, 2.0),                at(broken, 0.4, 1.0),
+              at(walked(4, 0.7, 0.1, 1.0, 0.3), 0.45, 1.1), at(fallen(5, 9.0), 0.5, 1.1),
+              at(walked(6, 0.9, 0.1, 1.0, 0.3), 0.0, 1.0)};
+  const FallLocations f = science_report(s).falls_after_locations;
+  EXPECT_EQ(f.falls, 2);
+  EXPECT_EQ(f.walked, 2);                                // rollouts 5 and 7; the initial two are not counted
+  EXPECT_DOUBLE_EQ(f.falls_params_at_bound_median, 1.0);  // the corner (2) and the one next to the best (0)
+  EXPECT_DOUBLE_EQ(f.walked_params_at_bound_median, 0.5);
+  EXPECT_NEAR(f.falls_distance_to_best_median, 0.5 * (std::hypot(0.6, 0.5) + 0.05), 1e-12);
+  EXPECT_NEAR(f.walked_distance_to_best_median, 0.5 * (std::hypot(0.05, 0.05) + std::hypot(0.45, 0.05)), 1e-12);
+  EXPECT_EQ(f.falls_near_best, 1);
+  const nlohmann::json j = to_json(science_report(s));
+  EXPECT_EQ(j["falls"]["after_locations"]["falls_near_best"], 1);
+}
+
 TEST(ScienceReport, WindowsAreClippedAndUseNonFallenRolloutsOnly) {
   ReportOptions o;
   o.windows = {{1, 4}, {5, 8}, {9, 150}, {200, 300}};

@@ -13,6 +13,12 @@ std::vector<TableRow> report_rows(const nlohmann::json& report) {
       {"falls, all rollouts", "falls.total", 0},
       {"falls in the initial design", "falls.initial", 0},
       {"falls after it", "falls.after", 0},
+      {"  where, after it (median; distance in the unit cube)", "", 0},
+      {"    parameters at a bound: falls", "falls.after_locations.falls_params_at_bound_median", 1},
+      {"    parameters at a bound: rollouts that walked", "falls.after_locations.walked_params_at_bound_median", 1},
+      {"    distance to the best so far: falls", "falls.after_locations.falls_distance_to_best_median", 2},
+      {"    distance to the best so far: walked", "falls.after_locations.walked_distance_to_best_median", 2},
+      {"    falls within 0.15 of the best so far", "falls.after_locations.falls_near_best", 0},
       {"failed evaluations (did not run)", "failed_evaluations", 0},
   };
   const auto& windows = report.value("windows", nlohmann::json::array());

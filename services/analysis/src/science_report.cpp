@@ -156,6 +156,7 @@ ScienceReport science_report(const StudyTrials& s, const ReportOptions& o) {
   r.fraction_contact_small = walked > 0 ? contact_small / walked : std::nan("");
   r.fraction_periodicity_small = walked > 0 ? periodicity_small / walked : std::nan("");
   r.fraction_both_small = walked > 0 ? both_small / walked : std::nan("");
+  r.falls_after_locations = fall_locations(s);
   r.recommendation = recommend(s);
   return r;
 }

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/analysis/fall_locations.hpp"
 #include "cpgmatch/analysis/recommendation.hpp"
 #include "cpgmatch/analysis/jitter.hpp"
 #include "cpgmatch/analysis/trial.hpp"
@@ -56,6 +57,7 @@ struct ScienceReport {
   int failed_evaluations = 0;  // the rollout could not run at all (not a fall)
   int initial_points = 0;
   int falls = 0, falls_initial = 0, falls_after = 0;
+  FallLocations falls_after_locations;  // at the space's corners or next to the best (fall_locations.hpp)
   std::vector<WindowStats> windows;
 
   // Learning: the last `last_rollouts` rollouts against the initial design, non-fallen only.

@@ -1,0 +1,68 @@
+#include "cpgmatch/analysis/fall_locations.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <vector>
+
+#include "cpgmatch/analysis/statistics.hpp"
+
+namespace cpgmatch::analysis {
+namespace {
+
+// The trial's optimised parameters scaled to [0, 1] by their search ranges (bounds order).
+std::vector<double> unit_point(const Trial& t, const std::map<std::string, Bounds>& bounds) {
+  std::vector<double> u;
+  for (const auto& [name, b] : bounds) {
+    const auto it = t.params.find(name);
+    const double range = b.high - b.low;
+    if (it == t.params.end() || !(range > 0.0)) continue;
+    u.push_back((it->second - b.low) / range);
+  }
+  return u;
+}
+
+int params_at_bound(const std::vector<double>& u, double margin) {
+  return static_cast<int>(std::count_if(u.begin(), u.end(), [&](double x) { return x <= margin || x >= 1.0 - margin; }));
+}
+
+double distance(const std::vector<double>& a, const std::vector<double>& b) {
+  double s = 0.0;
+  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i) s += (a[i] - b[i]) * (a[i] - b[i]);
+  return std::sqrt(s);
+}
+
+}  // namespace
+
+FallLocations fall_locations(const StudyTrials& study, const FallLocationOptions& options) {
+  FallLocations out;
+  std::vector<double> fall_bounds, walked_bounds, fall_distances, walked_distances;
+  std::optional<std::size_t> best;  // the lowest-cost rollout that ran, so far
+  for (std::size_t i = 0; i < study.trials.size(); ++i) {
+    const Trial& t = study.trials[i];
+    if (!t.ok) continue;
+    if (t.trial_id >= study.initial_points && best) {
+      const std::vector<double> u = unit_point(t, study.bounds);
+      const double at_bound = params_at_bound(u, options.bound_margin);
+      const double d = distance(u, unit_point(study.trials[*best], study.bounds));
+      if (t.fell) {
+        ++out.falls;
+        fall_bounds.push_back(at_bound);
+        fall_distances.push_back(d);
+        if (d <= options.near_best) ++out.falls_near_best;
+      } else {
+        ++out.walked;
+        walked_bounds.push_back(at_bound);
+        walked_distances.push_back(d);
+      }
+    }
+    if (!best || t.cost < study.trials[*best].cost) best = i;
+  }
+  out.falls_params_at_bound_median = median(fall_bounds);
+  out.walked_params_at_bound_median = median(walked_bounds);
+  out.falls_distance_to_best_median = median(fall_distances);
+  out.walked_distance_to_best_median = median(walked_distances);
+  return out;
+}
+
+}  // namespace cpgmatch::analysis
