@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Fuzz the command line: a few hundred generated argument lists (fixed seed) for `cpgmatch rollout`,
-`analyze`, `optimize` and `study run`. Each must end with exit 0 (valid input) or 2 (bad input, with a
+`analyze`, `optimize` and `study run`, and generated rollout settings files. Each must end with exit 0 (valid input) or 2 (bad input, with a
 message on stderr), never a crash, a signal, exit 1 or a hang (each run is time-bounded).
 Usage: fuzz_cli.py BIN_DIR [N=300]"""
 import os
@@ -50,5 +50,50 @@ with tempfile.TemporaryDirectory() as tmp:
         if p.returncode not in (0, 2) or (p.returncode == 2 and not p.stderr.strip()):
             print(f"exit {p.returncode}: {args}\n  stderr: {p.stderr.decode(errors='replace')[:300]}")
             bad += 1
-print(f"cli fuzz: {n} generated command lines, {bad} bad outcomes")
+
+# Rollout settings files (`cpgmatch rollout --settings`): one to three keys of configs/rollout.yaml set to
+# garbage, a list or a map. Every number in that file has a range (common/src/rollout.cpp).
+settings_keys = {
+    "": ["entrain_s", "eval_s"],
+    "controller": ["coupling_gain_per_s", "control_rate_hz", "startup_ramp_s", "gait"],
+    "controller.feedback": ["late_touchdown_phase_rate", "late_touchdown_max_wait_s", "late_toeoff_phase_rate",
+                            "reflex_duration_s", "reflex_hip_passive_s", "reflex_knee_flexion_rad",
+                            "etd_min_airborne_s", "etd_min_knee_flexion_fraction", "eto_min_stance_fraction",
+                            "early_touchdown"],
+    "contact_sensor": ["threshold_n", "release_threshold_n", "min_stable_s", "poll_rate_hz", "noise_std_n",
+                       "latency_s"],
+    "cost": ["min_distance_m", "fall_max_abs_pitch_rad", "fall_min_height_m", "fall_cost_margin", "contact_cap",
+             "fall_cost_per_lost_fraction"],
+    "cost.weights": ["feedback", "distance", "pitch", "contact", "periodicity"],
+}
+settings_values = [v for v in garbage if v not in ("", "\xff")] + ["[1, 2]", "{a: 1}", "true", "~", "0.5", "1e-9"]
+n_settings = max(1, n // 3)
+with tempfile.TemporaryDirectory() as tmp:
+    for i in range(n_settings):
+        tree = {}  # nested sections, each key once (a repeated key is refused before any value is read)
+        for _ in range(rng.randint(1, 3)):
+            section = rng.choice(list(settings_keys))
+            node = tree
+            for name in section.split(".") if section else []:
+                node = node.setdefault(name, {})
+            node[rng.choice(settings_keys[section])] = rng.choice(settings_values)
+
+        def emit(node, depth=0):
+            for k, v in node.items():
+                yield from ([f"{'  ' * depth}{k}:"] + list(emit(v, depth + 1))) if isinstance(v, dict) else [f"{'  ' * depth}{k}: {v}"]
+
+        path = os.path.join(tmp, f"settings-{i}.yaml")
+        with open(path, "w") as f:
+            f.write("\n".join(emit(tree)) + "\n")
+        args = [f"{bin_dir}/cpgmatch", "rollout", "--settings", path] + short
+        try:
+            p = subprocess.run(args, capture_output=True, timeout=30, cwd=tmp)
+        except subprocess.TimeoutExpired:
+            print(f"HANG: settings {open(path).read()!r}")
+            bad += 1
+            continue
+        if p.returncode not in (0, 2) or (p.returncode == 2 and not p.stderr.strip()):
+            print(f"exit {p.returncode}: settings {open(path).read()!r}\n  stderr: {p.stderr.decode(errors='replace')[:300]}")
+            bad += 1
+print(f"cli fuzz: {n} generated command lines and {n_settings} settings files, {bad} bad outcomes")
 sys.exit(1 if bad else 0)
