@@ -155,7 +155,8 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       fb.early_toeoff = f.get_bool("early_toeoff", fb.early_toeoff);
       fb.late_toeoff_deceleration = f.get_bool("late_toeoff_deceleration", fb.late_toeoff_deceleration);
       // Phase speed factors: 0 stops the phase, 1 is the feedforward speed.
-      fb.late_touchdown_phase_rate = f.get_double_in("late_touchdown_phase_rate", fb.late_touchdown_phase_rate, 0.0, 1.0);
+      fb.late_touchdown_phase_rate =
+          f.get_double_in("late_touchdown_phase_rate", fb.late_touchdown_phase_rate, 0.0, 1.0);
       fb.late_toeoff_phase_rate = f.get_double_in("late_toeoff_phase_rate", fb.late_toeoff_phase_rate, 0.0, 1.0);
       // A reflex is part of one swing: at most 1 s (a whole step at the space's lowest frequency is longer).
       fb.reflex_duration_s = f.get_double_in("reflex_duration_s", fb.reflex_duration_s, 0.001, 1.0);

@@ -69,7 +69,8 @@ def count(terrain, feedback, outcome, gait=None):
 label = "feedback" + (f" ({' '.join(extra)})" if extra else "")
 for t in terrains:
     print(f"{t}, of {seeds * len(gaits)} rollouts each: {label} falls {count(t, True, 'fell')} stalls "
-          f"{count(t, True, 'stalled')} / open loop falls {count(t, False, 'fell')} stalls {count(t, False, 'stalled')}")
+          f"{count(t, True, 'stalled')} / open loop falls {count(t, False, 'fell')} "
+          f"stalls {count(t, False, 'stalled')}")
     print("  per gait, falls+stalls with / without: " +
           " ".join(f"{g} {count(t, True, 'fell', g)}+{count(t, True, 'stalled', g)}/"
                    f"{count(t, False, 'fell', g)}+{count(t, False, 'stalled', g)}" for g in gaits))

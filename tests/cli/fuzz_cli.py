@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Fuzz the command line: a few hundred generated argument lists (fixed seed) for `cpgmatch rollout`,
-`analyze`, `optimize` and `study run`, and generated rollout settings files. Each must end with exit 0 (valid input) or 2 (bad input, with a
-message on stderr), never a crash, a signal, exit 1 or a hang (each run is time-bounded).
+`analyze`, `optimize` and `study run`, and generated rollout settings files. Each must end with exit 0
+(valid input) or 2 (bad input, with a message on stderr), never a crash, a signal, exit 1 or a hang (each
+run is time-bounded).
 Usage: fuzz_cli.py BIN_DIR [N=300]"""
 import os
 import random
@@ -80,7 +81,11 @@ with tempfile.TemporaryDirectory() as tmp:
 
         def emit(node, depth=0):
             for k, v in node.items():
-                yield from ([f"{'  ' * depth}{k}:"] + list(emit(v, depth + 1))) if isinstance(v, dict) else [f"{'  ' * depth}{k}: {v}"]
+                if isinstance(v, dict):
+                    yield f"{'  ' * depth}{k}:"
+                    yield from emit(v, depth + 1)
+                else:
+                    yield f"{'  ' * depth}{k}: {v}"
 
         path = os.path.join(tmp, f"settings-{i}.yaml")
         with open(path, "w") as f:
@@ -93,7 +98,8 @@ with tempfile.TemporaryDirectory() as tmp:
             bad += 1
             continue
         if p.returncode not in (0, 2) or (p.returncode == 2 and not p.stderr.strip()):
-            print(f"exit {p.returncode}: settings {open(path).read()!r}\n  stderr: {p.stderr.decode(errors='replace')[:300]}")
+            stderr = p.stderr.decode(errors="replace")[:300]
+            print(f"exit {p.returncode}: settings {open(path).read()!r}\n  stderr: {stderr}")
             bad += 1
 print(f"cli fuzz: {n} generated command lines and {n_settings} settings files, {bad} bad outcomes")
 sys.exit(1 if bad else 0)

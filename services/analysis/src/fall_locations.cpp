@@ -23,7 +23,8 @@ std::vector<double> unit_point(const Trial& t, const std::map<std::string, Bound
 }
 
 int params_at_bound(const std::vector<double>& u, double margin) {
-  return static_cast<int>(std::count_if(u.begin(), u.end(), [&](double x) { return x <= margin || x >= 1.0 - margin; }));
+  const auto at_bound = [&](double x) { return x <= margin || x >= 1.0 - margin; };
+  return static_cast<int>(std::count_if(u.begin(), u.end(), at_bound));
 }
 
 double distance(const std::vector<double>& a, const std::vector<double>& b) {
