@@ -1,5 +1,7 @@
 // Each feedback mechanism fires on its synthetic contact sequence, and only then.
+#include <cmath>
 #include <functional>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -93,6 +95,41 @@ TEST(Feedback, EarlyTouchdownTriggersTheKneeReflexWithAPassiveHip) {
   EXPECT_GT(c.etd, 0);
   EXPECT_TRUE(c.hip_passive);
   EXPECT_EQ(c.ltd + c.eto + c.lto, 0);
+}
+
+TEST(Feedback, TheReflexsHipIsPassiveForTheImpactOnlyThenDrivesWhileTheKneeIsStillUp) {
+  // Same stumble (ground at phase 0.7 in swing). 500 Hz ticks: the reflex lasts 0.12 s (60 ticks), its hip
+  // is passive for the first 0.04 s (20 ticks), and the knee is still pulled up after that.
+  CpgParameters p;
+  p.duty_factor_front = 0.5;
+  p.knee_phase_shift = 0.2;
+  p.overswing = 0.2;
+  const StepTiming t = step_timing(p, kFrontLeft);
+  auto passive_and_driven_ticks = [&](FeedbackConfig cfg) {
+    LegFeedback fb(cfg);
+    int passive = 0, driven_with_knee_up = 0;
+    double phase = 0.0;
+    for (int tick = 0; tick < 1000; ++tick) {
+      const auto a = fb.update(phase, phase < 0.5 || (phase >= 0.7 && phase < 0.75), 0.002, t);
+      passive += a.hip_passive;
+      driven_with_knee_up += a.activity.early_touchdown && !a.hip_passive && a.extra_knee_flexion > 0.1;
+      phase = std::fmod(phase + 0.002 * a.phase_rate, 1.0);
+    }
+    return std::pair{passive, driven_with_knee_up};
+  };
+  const FeedbackConfig shipped;
+  ASSERT_DOUBLE_EQ(shipped.reflex_hip_passive_s, 0.04);
+  const auto [passive, driven] = passive_and_driven_ticks(shipped);
+  EXPECT_GE(passive, 2 * 20);  // two swings, 20 ticks each (21 if the timer's round-off lands just short)
+  EXPECT_LE(passive, 2 * 21);
+  EXPECT_GT(driven, 2 * 20);   // the rest of the reflex: hip driving, knee still > 0.1 rad up
+  FeedbackConfig whole = shipped;
+  whole.reflex_hip_passive_s = whole.reflex_duration_s;  // the reading before 2026-12-02
+  EXPECT_GE(passive_and_driven_ticks(whole).first, 2 * 60);
+  EXPECT_LE(passive_and_driven_ticks(whole).first, 2 * 61);
+  FeedbackConfig never = shipped;
+  never.reflex_hip_passive = false;
+  EXPECT_EQ(passive_and_driven_ticks(never).first, 0);
 }
 
 TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
