@@ -130,7 +130,8 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       c.fail("gait", e.what());
     }
     cc.coupling_gain_per_s = c.get_double_in("coupling_gain_per_s", cc.coupling_gain_per_s, 0.0, 1000.0);
-    // 10 Hz is too slow to shape a 1-Hz step; above 10 kHz the loop outruns the 1-kHz physics and any bus.
+    // 10 Hz is too slow to shape a 1-Hz step; 10 kHz bounds what any motor bus could carry (a simulated
+    // rollout also needs it to divide the physics rate, checked when it runs).
     cc.control_rate_hz = c.get_double_in("control_rate_hz", cc.control_rate_hz, 10.0, 10000.0);
     cc.startup_ramp_s = c.get_double_in("startup_ramp_s", cc.startup_ramp_s, 0.0, 60.0);
     // A phase error of four all-to-all coupled legs decays as exp(-8 pi K t); the CPG's explicit Euler

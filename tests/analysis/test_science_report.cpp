@@ -78,6 +78,15 @@ TEST(ScienceReport, FallsAfterTheDesignAreLocatedAtTheBoundsOrNextToTheBest) {
   EXPECT_EQ(f.falls_near_best, 1);
   const nlohmann::json j = to_json(science_report(s));
   EXPECT_EQ(j["falls"]["after_locations"]["falls_near_best"], 1);
+  EXPECT_EQ(j["falls"]["after_locations"]["falls"], 2);
+
+  // A rollout without a finite cost is never the best so far; an empty study has no medians.
+  s.trials[1].cost = std::nan("");
+  EXPECT_NEAR(science_report(s).falls_after_locations.falls_distance_to_best_median,
+              0.5 * (std::hypot(0.5, 0.5) + 0.05), 1e-12);  // the corner fall measured from rollout 1 (0.5, 0.5)
+  const FallLocations none = science_report(StudyTrials{}).falls_after_locations;
+  EXPECT_EQ(none.falls + none.walked, 0);
+  EXPECT_TRUE(std::isnan(none.falls_distance_to_best_median));
 }
 
 TEST(ScienceReport, WindowsAreClippedAndUseNonFallenRolloutsOnly) {

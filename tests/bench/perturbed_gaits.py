@@ -6,7 +6,8 @@ Usage: tests/bench/perturbed_gaits.py BUILD_DIR TERRAINS [SEEDS=6] [GAIT...] [--
   GAIT      a parameter YAML (configs/params/*.yaml) or a study's analysis.json (its best gait);
             default: configs/params/matched-trot.yaml
   FLAG      extra `cpgmatch rollout` flags for the feedback-on rollouts only, e.g.
-            `-- --disable etd` or `-- --settings variant.yaml` (a controller variant against the open loop)
+            `-- --disable etd` or `-- --settings variant.yaml` (a controller variant against the open loop);
+            not --entrain/--eval: the open-loop rollouts would not get them, and a stall is judged on 10 s
 Each gait runs on each terrain with seeds 0..SEEDS-1, feedback on and off (`--no-feedback`), two rollouts
 at a time. A rollout that did not fall but covered less than 0.5 m in the evaluated 10 s (it walked into a
 step it cannot climb, or stumbles in place) is counted as stalled, apart from the falls: standing at a step

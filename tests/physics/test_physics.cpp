@@ -228,8 +228,8 @@ TEST(Physics, DownAFiveCentimetreStepTheReflexWithAHipThatDrivesOnAfterTheImpact
   // swing; the early-touchdown reflex lifts the knee. If the hip stays passive for the whole 0.12-s reflex
   // (this project's reading of the paper until 2026-12-02) the ground drags the leg back and the robot goes
   // over too; passive for the 0.04-s impact and then driving the swing on, the leg lands in front and
-  // catches the body. Measured by hand over seeds 0-4: 0 / 5 falls, 5 / 5 open loop; the same 5 / 5 with the
-  // reflex switched off (docs/model.md, "Feedback on perturbed ground").
+  // catches the body. Measured by hand over seeds 0-4: 0 / 5 falls, 5 / 5 open loop; over seeds 0-2 also
+  // 3 / 3 with the reflex switched off (docs/model.md, "Feedback on perturbed ground").
   int falls_shipped = 0, falls_open_loop = 0, falls_whole_reflex_passive = 0;
   for (std::uint64_t seed = 0; seed < 3; ++seed) {
     SimRolloutJob job = job_with("matched-trot.yaml", "step:-0.05@1.5", 10.0, 10.0);

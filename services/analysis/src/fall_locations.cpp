@@ -10,18 +10,6 @@
 namespace cpgmatch::analysis {
 namespace {
 
-// The trial's optimised parameters scaled to [0, 1] by their search ranges (bounds order).
-std::vector<double> unit_point(const Trial& t, const std::map<std::string, Bounds>& bounds) {
-  std::vector<double> u;
-  for (const auto& [name, b] : bounds) {
-    const auto it = t.params.find(name);
-    const double range = b.high - b.low;
-    if (it == t.params.end() || !(range > 0.0)) continue;
-    u.push_back((it->second - b.low) / range);
-  }
-  return u;
-}
-
 int params_at_bound(const std::vector<double>& u, double margin) {
   const auto at_bound = [&](double x) { return x <= margin || x >= 1.0 - margin; };
   return static_cast<int>(std::count_if(u.begin(), u.end(), at_bound));
@@ -29,7 +17,7 @@ int params_at_bound(const std::vector<double>& u, double margin) {
 
 double distance(const std::vector<double>& a, const std::vector<double>& b) {
   double s = 0.0;
-  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i) s += (a[i] - b[i]) * (a[i] - b[i]);
+  for (std::size_t i = 0; i < a.size(); ++i) s += (a[i] - b[i]) * (a[i] - b[i]);
   return std::sqrt(s);
 }
 
@@ -57,7 +45,8 @@ FallLocations fall_locations(const StudyTrials& study, const FallLocationOptions
         walked_distances.push_back(d);
       }
     }
-    if (!best || t.cost < study.trials[*best].cost) best = i;
+    // The best so far as the report sees it: a rollout without a finite cost is never the best.
+    if (std::isfinite(t.cost) && (!best || t.cost < study.trials[*best].cost)) best = i;
   }
   out.falls_params_at_bound_median = median(fall_bounds);
   out.walked_params_at_bound_median = median(walked_bounds);

@@ -22,13 +22,8 @@ std::optional<Recommendation> recommend(const StudyTrials& study) {
   Eigen::MatrixXd X(n, d);
   Eigen::VectorXd y(n);
   for (int i = 0; i < n; ++i) {
-    int j = 0;
-    for (const auto& [name, range] : study.bounds) {
-      const auto it = ran[i]->params.find(name);
-      const double v = it == ran[i]->params.end() ? range.low : it->second;
-      const double width = range.high - range.low;
-      X(i, j++) = width > 0.0 ? (v - range.low) / width : 0.5;
-    }
+    const std::vector<double> u = unit_point(*ran[i], study.bounds);
+    for (int j = 0; j < d; ++j) X(i, j) = u[static_cast<std::size_t>(j)];
     y[i] = ran[i]->cost;
   }
   bo::GaussianProcess gp;

@@ -46,7 +46,8 @@ nlohmann::json to_json(const ScienceReport& r) {
         {"initial", r.falls_initial},
         {"after", r.falls_after},
         {"after_locations",
-         {{"walked", r.falls_after_locations.walked},
+         {{"falls", r.falls_after_locations.falls},  // falls.after less those before any rollout ran
+          {"walked", r.falls_after_locations.walked},
           {"falls_params_at_bound_median", number(r.falls_after_locations.falls_params_at_bound_median)},
           {"walked_params_at_bound_median", number(r.falls_after_locations.walked_params_at_bound_median)},
           {"falls_distance_to_best_median", number(r.falls_after_locations.falls_distance_to_best_median)},

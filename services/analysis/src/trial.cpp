@@ -32,4 +32,16 @@ Trial trial_from_report(int trial_id, const nlohmann::json& report, std::map<std
   return t;
 }
 
+std::vector<double> unit_point(const Trial& t, const std::map<std::string, Bounds>& bounds) {
+  std::vector<double> u;
+  u.reserve(bounds.size());
+  for (const auto& [name, range] : bounds) {
+    const auto it = t.params.find(name);
+    const double v = it == t.params.end() ? range.low : it->second;
+    const double width = range.high - range.low;
+    u.push_back(width > 0.0 ? (v - range.low) / width : 0.5);
+  }
+  return u;
+}
+
 }  // namespace cpgmatch::analysis

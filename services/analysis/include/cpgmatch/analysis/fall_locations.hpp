@@ -27,7 +27,9 @@ struct FallLocations {
   int falls_near_best = 0;                     // falls within near_best of the best so far
 };
 
-// NaN medians for an empty group. Needs the study's bounds; parameters without bounds are ignored.
+// NaN medians for an empty group. Needs the study's bounds; parameters without bounds (fixed ones) are
+// ignored, a bounded one a trial lacks counts as its lower bound (unit_point()). The best so far is the
+// lowest finite cost among the rollouts that ran before.
 FallLocations fall_locations(const StudyTrials& study, const FallLocationOptions& options = {});
 
 }  // namespace cpgmatch::analysis

@@ -47,6 +47,10 @@ struct StudyTrials {
   std::vector<Trial> trials;       // ordered by trial_id
 };
 
+// The trial's optimised parameters scaled to [0, 1] by their search ranges, in `bounds` order (the GP's
+// input). A parameter the trial lacks counts as its lower bound; a range of zero width maps to 0.5.
+std::vector<double> unit_point(const Trial& t, const std::map<std::string, Bounds>& bounds);
+
 // One rollout report (to_json(RolloutReport) in idl/transport) as a Trial. Old stores have no
 // `summed_torque_nm` (or null): it is rebuilt as normalized_torque x mean_speed_mps.
 Trial trial_from_report(int trial_id, const nlohmann::json& report, std::map<std::string, double> params);
