@@ -24,6 +24,20 @@ templates = {
     "reproduce": ["--seeds", "--first-seed", "--workers", "--jitter"],
 }
 bad = 0
+
+
+def ends_well(args, cwd, what):
+    """Runs one command line; False (and says why) on a hang, a crash, exit 1, or exit 2 without a message."""
+    try:
+        p = subprocess.run(args, capture_output=True, timeout=30, cwd=cwd)
+    except subprocess.TimeoutExpired:
+        print(f"HANG: {what}")
+        return False
+    if p.returncode not in (0, 2) or (p.returncode == 2 and not p.stderr.strip()):
+        print(f"exit {p.returncode}: {what}\n  stderr: {p.stderr.decode(errors='replace')[:300]}")
+        return False
+    return True
+
 with tempfile.TemporaryDirectory() as tmp:
     for i in range(n):
         command = rng.choice(list(templates))
@@ -42,15 +56,7 @@ with tempfile.TemporaryDirectory() as tmp:
             args += [f, value]
         if command in ("reproduce",):
             args += ["--config", "/nonexistent-study.yaml"]  # never start a real study from the fuzz
-        try:
-            p = subprocess.run(args, capture_output=True, timeout=30, cwd=tmp)
-        except subprocess.TimeoutExpired:
-            print(f"HANG: {args}")
-            bad += 1
-            continue
-        if p.returncode not in (0, 2) or (p.returncode == 2 and not p.stderr.strip()):
-            print(f"exit {p.returncode}: {args}\n  stderr: {p.stderr.decode(errors='replace')[:300]}")
-            bad += 1
+        bad += not ends_well(args, tmp, str(args))
 
 # Rollout settings files (`cpgmatch rollout --settings`): one to three keys of configs/rollout.yaml set to
 # garbage, a list or a map. Every number in that file has a range (common/src/rollout.cpp).
@@ -88,18 +94,10 @@ with tempfile.TemporaryDirectory() as tmp:
                     yield f"{'  ' * depth}{k}: {v}"
 
         path = os.path.join(tmp, f"settings-{i}.yaml")
-        with open(path, "w") as f:
+        with open(path, "w", encoding="utf-8") as f:
             f.write("\n".join(emit(tree)) + "\n")
         args = [f"{bin_dir}/cpgmatch", "rollout", "--settings", path] + short
-        try:
-            p = subprocess.run(args, capture_output=True, timeout=30, cwd=tmp)
-        except subprocess.TimeoutExpired:
-            print(f"HANG: settings {open(path).read()!r}")
-            bad += 1
-            continue
-        if p.returncode not in (0, 2) or (p.returncode == 2 and not p.stderr.strip()):
-            stderr = p.stderr.decode(errors="replace")[:300]
-            print(f"exit {p.returncode}: settings {open(path).read()!r}\n  stderr: {stderr}")
-            bad += 1
+        with open(path, encoding="utf-8") as f:
+            bad += not ends_well(args, tmp, f"settings {f.read()!r}")
 print(f"cli fuzz: {n} generated command lines and {n_settings} settings files, {bad} bad outcomes")
 sys.exit(1 if bad else 0)

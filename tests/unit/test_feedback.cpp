@@ -18,12 +18,17 @@ struct Counts {
   bool hip_passive = false;
 };
 
-Counts run(const std::function<bool(double)>& contact_at, FeedbackConfig cfg = {}) {
+// D 0.5, knee flex 0.4, retraction 0.9.
+StepTiming test_timing() {
   CpgParameters p;
   p.duty_factor_front = 0.5;
   p.knee_phase_shift = 0.2;
   p.overswing = 0.2;
-  const StepTiming t = step_timing(p, kFrontLeft);  // D 0.5, knee flex 0.4, retraction 0.9
+  return step_timing(p, kFrontLeft);
+}
+
+Counts run(const std::function<bool(double)>& contact_at, FeedbackConfig cfg = {}) {
+  const StepTiming t = test_timing();
   LegFeedback fb(cfg);
   Counts c;
   double phase = 0.0;
@@ -100,11 +105,7 @@ TEST(Feedback, EarlyTouchdownTriggersTheKneeReflexWithAPassiveHip) {
 TEST(Feedback, TheReflexsHipIsPassiveForTheImpactOnlyThenDrivesWhileTheKneeIsStillUp) {
   // Same stumble (ground at phase 0.7 in swing). 500 Hz ticks: the reflex lasts 0.12 s (60 ticks), its hip
   // is passive for the first 0.04 s (20 ticks), and the knee is still pulled up after that.
-  CpgParameters p;
-  p.duty_factor_front = 0.5;
-  p.knee_phase_shift = 0.2;
-  p.overswing = 0.2;
-  const StepTiming t = step_timing(p, kFrontLeft);
+  const StepTiming t = test_timing();
   auto passive_and_driven_ticks = [&](FeedbackConfig cfg) {
     LegFeedback fb(cfg);
     int passive = 0, driven_with_knee_up = 0;
@@ -134,11 +135,7 @@ TEST(Feedback, TheReflexsHipIsPassiveForTheImpactOnlyThenDrivesWhileTheKneeIsSti
 
 TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
   // Contact lost at 0.3 (after mid-stance, 0.25), before the knee was due to flex at 0.4.
-  CpgParameters p;
-  p.duty_factor_front = 0.5;
-  p.knee_phase_shift = 0.2;
-  p.overswing = 0.2;
-  const StepTiming t = step_timing(p, kFrontLeft);
+  const StepTiming t = test_timing();
   LegFeedback fb;
   double phase = 0.0, flex_start = -1.0;
   int eto = 0;
