@@ -79,8 +79,8 @@ std::string settings_error(const std::string& yaml) {
 }
 
 TEST(InputLimits, EveryNumberInTheRolloutSettingsHasARange) {
-  // Each of these used to load: a controller at 1e12 Hz or a 1e9-s reflex never ends a rollout, and a
-  // negative cost weight rewards the very thing its term penalises.
+  // Each of these used to load: a 1e9-s reflex lasts the whole rollout, a 1e12-Hz controller was refused
+  // only once a rollout started, and a negative cost weight rewards the very thing its term penalises.
   const struct {
     const char* yaml;
     const char* field;
