@@ -80,7 +80,8 @@ check "worker --id too long" expect_exit 2 "\-\-id" "$bindir/cpgmatch-sim-worker
 check "optimizer --domain 999" expect_exit 2 "domain" "$bindir/cpgmatch-optimizer" --domain 999 --store "$tmp/x.db"
 "$bindir/cpgmatch-optimizer" --domain 94 --store "$tmp/locked.db" --localhost-only >"$tmp/first.log" 2>&1 &
 first=$!
-for _ in $(seq 50); do [ -f "$tmp/locked.db.lock" ] && break; sleep 0.1; done
+# The lock file exists a moment before it is locked; its holder's pid is written only once it is held.
+for _ in $(seq 50); do [ -s "$tmp/locked.db.lock" ] && break; sleep 0.1; done
 check "second optimizer on one store" expect_exit 2 "already in use" "$bindir/cpgmatch-optimizer" --domain 95 --store "$tmp/locked.db"
 kill "$first"; wait "$first" 2>/dev/null
 check "store created 0600" test "$(stat -c %a "$tmp/locked.db")" = 600
