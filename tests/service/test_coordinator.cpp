@@ -614,7 +614,9 @@ std::vector<std::map<std::string, double>> CoordinatorTest::four_slot_study(bool
     settle(now_ += 0.01);
   }
   std::vector<std::map<std::string, double>> last;
-  for (std::size_t i = answered; i < out_.candidates.size(); ++i) last.push_back(dds::from_wire(out_.candidates[i].parameters()));
+  for (std::size_t i = answered; i < out_.candidates.size(); ++i) {
+    last.push_back(dds::from_wire(out_.candidates[i].parameters()));
+  }
   return last;
 }
 

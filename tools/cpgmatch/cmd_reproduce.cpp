@@ -49,7 +49,8 @@ void add_reproduce_command(CLI::App& app) {
       "reproduce", "run the paper's study with seeds 1..N, each as `study run` does, and compare mean ± sd with the paper");
   cmd->add_option("--seeds", opts->seeds, "replicates, seeds 1..N (default 5)");
   cmd->add_option("--first-seed", opts->first_seed,
-                  "first seed (default 1): seeds K..K+N-1, e.g. --first-seed 6 --seeds 5 adds seeds 6-10 to a run of 1-5");
+                  "first seed (default 1): seeds K..K+N-1, e.g. --first-seed 6 --seeds 5 adds seeds 6-10 to a "
+                  "run of 1-5");
   opts->common.add_to(*cmd, "results directory (default: results/reproduce-<time>); one folder per seed inside");
   cmd->callback([opts] {
     if (opts->seeds < 1) throw InputError(fmt::format("--seeds {}: must be >= 1", opts->seeds));
@@ -74,8 +75,9 @@ void add_reproduce_command(CLI::App& app) {
       const LocalStudyResult run = run_local_study(o);
       const StudyAnalysis a = write_study_results(run, jitter, quiet);
       if (!quiet) {
-        fmt::print(stderr, "replicate {}/{} (seed {}): best cost {:.3f} (rollout {}), {} falls, J_feedback ratio {:.3f}\n", k,
-                   opts->seeds, seed, a.report.best_cost, a.report.best_rollout, a.report.falls, a.report.feedback_ratio);
+        fmt::print(stderr, "replicate {}/{} (seed {}): best cost {:.3f} (rollout {}), {} falls, J_feedback ratio {:.3f}\n",
+                   k, opts->seeds, seed, a.report.best_cost, a.report.best_rollout, a.report.falls,
+                   a.report.feedback_ratio);
       }
       studies.push_back(a.trials);
       reports.push_back(a.json);

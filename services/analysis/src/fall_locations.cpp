@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <optional>
 #include <vector>
 
 #include "cpgmatch/analysis/statistics.hpp"
@@ -26,14 +25,14 @@ double distance(const std::vector<double>& a, const std::vector<double>& b) {
 FallLocations fall_locations(const StudyTrials& study, const FallLocationOptions& options) {
   FallLocations out;
   std::vector<double> fall_bounds, walked_bounds, fall_distances, walked_distances;
-  std::optional<std::size_t> best;  // the lowest-cost rollout that ran, so far
-  for (std::size_t i = 0; i < study.trials.size(); ++i) {
-    const Trial& t = study.trials[i];
+  const Trial* best = nullptr;  // the lowest-cost rollout that ran, so far
+  std::vector<double> best_u;   // ... and its unit-cube point
+  for (const Trial& t : study.trials) {
     if (!t.ok) continue;
-    if (t.trial_id >= study.initial_points && best) {
-      const std::vector<double> u = unit_point(t, study.bounds);
+    const std::vector<double> u = unit_point(t, study.bounds);
+    if (t.trial_id >= study.initial_points && best != nullptr) {
       const double at_bound = params_at_bound(u, options.bound_margin);
-      const double d = distance(u, unit_point(study.trials[*best], study.bounds));
+      const double d = distance(u, best_u);
       if (t.fell) {
         ++out.falls;
         fall_bounds.push_back(at_bound);
@@ -46,7 +45,10 @@ FallLocations fall_locations(const StudyTrials& study, const FallLocationOptions
       }
     }
     // The best so far as the report sees it: a rollout without a finite cost is never the best.
-    if (std::isfinite(t.cost) && (!best || t.cost < study.trials[*best].cost)) best = i;
+    if (std::isfinite(t.cost) && (best == nullptr || t.cost < best->cost)) {
+      best = &t;
+      best_u = u;
+    }
   }
   out.falls_params_at_bound_median = median(fall_bounds);
   out.walked_params_at_bound_median = median(walked_bounds);

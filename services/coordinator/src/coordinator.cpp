@@ -64,6 +64,18 @@ bo::ModelState model_state_from_json(const nlohmann::json& j) {
   return m;
 }
 
+// How many observations the study's saved model state was fitted on; nothing without a usable state
+// (restored_optimizer() then says why and replays every report).
+std::optional<int> saved_state_observations(const study::StoredStudy* stored) {
+  if (stored == nullptr || !stored->model_state.is_object()) return std::nullopt;
+  try {
+    const int n = model_state_from_json(stored->model_state).observations;
+    return n >= 0 ? std::optional<int>(n) : std::nullopt;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
 // What the optimizer was told for a stored trial: its cost, or a failure; and whether it fell.
 bo::Observation stored_observation(const study::StoredTrial& t) {
   bool fell = false;
@@ -207,14 +219,7 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     // the other reports wait in `untold` until an ask needs them, exactly as they would have.
     std::sort(done.begin(), done.end(),
               [](const study::StoredTrial* a, const study::StoredTrial* b) { return a->trial_id < b->trial_id; });
-    std::size_t told = 0;
-    if (stored != nullptr && stored->model_state.is_object()) {
-      try {
-        told = static_cast<std::size_t>(std::max(0, model_state_from_json(stored->model_state).observations));
-      } catch (const std::exception&) {
-        told = 0;  // restored_optimizer() says why and replays
-      }
-    }
+    const auto told = static_cast<std::size_t>(saved_state_observations(stored).value_or(0));
     for (const auto* t : done) {
       if (t->trial_id == static_cast<int>(observations.size()) && observations.size() < told) {
         observations.push_back(stored_observation(*t));
@@ -229,15 +234,10 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     // next model job, which tells them as one batch off the event loop, as the uninterrupted run's next job
     // would have (a finished study too: its last reports get a job of their own). Telling them here, one
     // refit each, kept a restart on 1000 results from serving for 7-9 s.
-    std::size_t told = done.size();
-    if (stored != nullptr && stored->model_state.is_object()) {
-      try {
-        const int saved = model_state_from_json(stored->model_state).observations;
-        if (saved >= 0 && static_cast<std::size_t>(saved) <= done.size()) told = static_cast<std::size_t>(saved);
-      } catch (const std::exception&) {
-        // restored_optimizer() says why and replays everything
-      }
-    }
+    // Without a usable state (or one covering more reports than stored) every report is replayed.
+    const std::optional<int> saved = saved_state_observations(stored);
+    const std::size_t told =
+        saved && static_cast<std::size_t>(*saved) <= done.size() ? static_cast<std::size_t>(*saved) : done.size();
     for (std::size_t i = 0; i < done.size(); ++i) {
       if (i < told) {
         observations.push_back(stored_observation(*done[i]));
@@ -277,8 +277,7 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     if (is_open(s)) out_.publish_trial(make_trial_record(s, t->trial_id, t->x, report));
   }
   s.records_retired = !is_open(s);
-  // s.model keeps the recommendation; reports still untold need the optimizer for their job first.
-  if (s.records_retired && s.in_flight.empty() && s.untold.empty()) s.optimizer.reset();
+  release_optimizer_if_done(s);
   s.session_start_s = now_s;
   s.completed_at_session_start = s.completed;
   if (!s.in_flight.empty()) {
@@ -720,6 +719,12 @@ Coordinator::ModelSnapshot Coordinator::snapshot_of(const bo::BayesianOptimizer&
   return m;
 }
 
+void Coordinator::release_optimizer_if_done(Study& s) {
+  // A retired study's model is no longer needed (s.model keeps the recommendation), unless a stopped
+  // study's candidate still reports or reports wait to be told.
+  if (s.records_retired && s.in_flight.empty() && s.untold.empty()) s.optimizer.reset();
+}
+
 ModelPool::Completion Coordinator::model_job_result(int id, int ask, FittedModel fitted,
                                                    std::vector<Eigen::VectorXd> points, std::string error) {
   // On the event thread: only copies and the store write, never model work.
@@ -735,8 +740,7 @@ ModelPool::Completion Coordinator::model_job_result(int id, int ask, FittedModel
     }
     if (!error.empty()) warn_(fmt::format("study {}: model job (tell, then ask({})) failed: {}", id, ask, error));
     study->proposed.insert(study->proposed.end(), points.begin(), points.end());
-    // A finished study reopened with reports still untold kept its optimizer for this job only.
-    if (study->records_retired && study->in_flight.empty() && study->untold.empty()) study->optimizer.reset();
+    release_optimizer_if_done(*study);  // a finished study reopened with untold reports kept it for this job
   };
 }
 
@@ -1036,9 +1040,7 @@ void Coordinator::retire_finished(Study& s, double now_s) {
     out_.retire_trial(key);
   }
   s.records_retired = true;
-  // Its model is no longer needed (the state keeps the recommendation), unless a stopped study's
-  // candidate still reports.
-  if (s.in_flight.empty()) s.optimizer.reset();
+  release_optimizer_if_done(s);
 }
 
 void Coordinator::tick(double now_s) {

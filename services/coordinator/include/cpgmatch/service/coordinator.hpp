@@ -288,6 +288,8 @@ class Coordinator {
   // Sets how many threads the study's next job may use for its acquisition search (idle model threads).
   void use_idle_model_threads(Study& study);
   static ModelSnapshot snapshot_of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials);
+  // Frees the optimizer of a study whose records are retired once nothing can still reach it.
+  static void release_optimizer_if_done(Study& study);
   void issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue);
   // A new report: queued for the study's next model job (which tells it and saves the model state), then accounted.
   void count_report(Study& study, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& report);
