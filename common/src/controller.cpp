@@ -23,7 +23,8 @@ ControllerOutput CpgController::update(const PerLeg<bool>& contacts) {
   for (int leg = 0; leg < kNumLegs; ++leg) {
     const double phase = network_.phases()[leg];
     const StepTiming& timing = timing_[leg];
-    const FeedbackAction action = feedback_[leg].update(phase, contacts[leg], dt, timing);
+    const FeedbackAction action =
+        feedback_[leg].update(phase, contacts[leg], dt, timing, contacts[girdle_partner(leg)]);
     // No phase deceleration during the start-up ramp: the feet are all down while standing.
     rates[leg] = ramp < 1.0 ? 1.0 : action.phase_rate;
 

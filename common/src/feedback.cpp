@@ -23,6 +23,7 @@ void LegFeedback::reset() {
   airborne_s_ = last_flight_s_ = 0.0;
   was_contact_ = true;
   reflex_time_left_ = 0.0;
+  reflex_withheld_ = false;
   early_flex_start_ = -1.0;
   late_touchdown_wait_s_ = 0.0;
 }
@@ -36,7 +37,8 @@ bool LegFeedback::landing_ready(double phase, const StepTiming& timing) const {
   return knee_profile(phase, flex_start, flex_end) < config_.etd_min_knee_flexion_fraction;
 }
 
-FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, const StepTiming& timing) {
+FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, const StepTiming& timing,
+                                   bool girdle_partner_contact) {
   const double duty = timing.duty_factor;
   if (!initialised_) {
     // Standing start: the feet are on the ground, so treat the current window as already touched down.
@@ -114,6 +116,7 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
         config_.early_touchdown) {
       reflex_used_ = true;
       reflex_time_left_ = config_.reflex_duration_s;
+      reflex_withheld_ = config_.reflex_needs_girdle_support && !girdle_partner_contact;
     }
   }
 
@@ -121,8 +124,10 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
     // Knee pull-up on a fixed half-sine trajectory; the hip lets the springs take the impact, then drives on.
     const double elapsed = config_.reflex_duration_s - reflex_time_left_;
     const double u = std::clamp(elapsed / config_.reflex_duration_s, 0.0, 1.0);
-    action.extra_knee_flexion = config_.reflex_knee_flexion_rad * std::sin(std::numbers::pi * u);
-    action.hip_passive = config_.reflex_hip_passive && elapsed < config_.reflex_hip_passive_s;
+    if (!reflex_withheld_) {
+      action.extra_knee_flexion = config_.reflex_knee_flexion_rad * std::sin(std::numbers::pi * u);
+      action.hip_passive = config_.reflex_hip_passive && elapsed < config_.reflex_hip_passive_s;
+    }
     action.activity.early_touchdown = true;
     reflex_time_left_ -= dt_s;
   }

@@ -149,7 +149,8 @@ RolloutSettings load_rollout_settings(const std::string& path) {
                              "late_touchdown_phase_rate", "late_toeoff_phase_rate", "reflex_duration_s",
                              "reflex_knee_flexion_rad", "reflex_hip_passive", "etd_min_airborne_s",
                              "etd_min_knee_flexion_fraction", "late_touchdown_max_wait_s",
-                             "eto_min_stance_fraction", "reflex_hip_passive_s"});
+                             "eto_min_stance_fraction", "reflex_hip_passive_s",
+                             "reflex_needs_girdle_support"});
       auto& fb = cc.feedback;
       fb.late_touchdown = f.get_bool("late_touchdown", fb.late_touchdown);
       fb.early_touchdown = f.get_bool("early_touchdown", fb.early_touchdown);
@@ -164,6 +165,7 @@ RolloutSettings load_rollout_settings(const std::string& path) {
       // Added to the feedforward knee flexion; the knee's whole range (0.2-2.4 rad) bounds any sensible value.
       fb.reflex_knee_flexion_rad = f.get_double_in("reflex_knee_flexion_rad", fb.reflex_knee_flexion_rad, 0.0, 2.2);
       fb.reflex_hip_passive = f.get_bool("reflex_hip_passive", fb.reflex_hip_passive);
+      fb.reflex_needs_girdle_support = f.get_bool("reflex_needs_girdle_support", fb.reflex_needs_girdle_support);
       fb.reflex_hip_passive_s = f.get_double_in("reflex_hip_passive_s", fb.reflex_hip_passive_s, 0.0, 1.0);
       fb.etd_min_airborne_s = f.get_double_in("etd_min_airborne_s", fb.etd_min_airborne_s, 0.0, 0.5);
       fb.etd_min_knee_flexion_fraction =

@@ -66,7 +66,7 @@ settings_keys = {
     "controller.feedback": ["late_touchdown_phase_rate", "late_touchdown_max_wait_s", "late_toeoff_phase_rate",
                             "reflex_duration_s", "reflex_hip_passive_s", "reflex_knee_flexion_rad",
                             "etd_min_airborne_s", "etd_min_knee_flexion_fraction", "eto_min_stance_fraction",
-                            "early_touchdown"],
+                            "early_touchdown", "reflex_needs_girdle_support"],
     "contact_sensor": ["threshold_n", "release_threshold_n", "min_stable_s", "poll_rate_hz", "noise_std_n",
                        "latency_s"],
     "cost": ["min_distance_m", "fall_max_abs_pitch_rad", "fall_min_height_m", "fall_cost_margin", "contact_cap",

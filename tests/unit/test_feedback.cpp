@@ -1,6 +1,8 @@
 // Each feedback mechanism fires on its synthetic contact sequence, and only then.
+#include <algorithm>
 #include <cmath>
 #include <functional>
+#include <tuple>
 #include <utility>
 
 #include <gtest/gtest.h>
@@ -131,6 +133,46 @@ TEST(Feedback, TheReflexsHipIsPassiveForTheImpactOnlyThenDrivesWhileTheKneeIsSti
   FeedbackConfig never = shipped;
   never.reflex_hip_passive = false;
   EXPECT_EQ(passive_and_driven_ticks(never).first, 0);
+}
+
+TEST(Feedback, TheReflexIsWithheldButMeasuredWhileTheGirdlesOtherLegIsOffTheGround) {
+  // The stumble of the tests above (ground at phase 0.7 in swing), with the girdle partner's contact given
+  // as a function of phase: off the ground from 0.6 to 0.8 (it touches down late), or always down.
+  const StepTiming t = test_timing();
+  auto reflex = [&](const std::function<bool(double)>& partner_at, FeedbackConfig cfg) {
+    LegFeedback fb(cfg);
+    int measured = 0;
+    double max_flexion = 0.0;
+    bool hip_passive = false;
+    double phase = 0.0;
+    for (int tick = 0; tick < 1000; ++tick) {
+      const bool contact = phase < 0.5 || (phase >= 0.7 && phase < 0.75);
+      const auto a = fb.update(phase, contact, 0.002, t, partner_at(phase));
+      measured += a.activity.early_touchdown;
+      max_flexion = std::max(max_flexion, a.extra_knee_flexion);
+      hip_passive = hip_passive || a.hip_passive;
+      phase = std::fmod(phase + 0.002 * a.phase_rate, 1.0);
+    }
+    return std::tuple{measured, max_flexion, hip_passive};
+  };
+  const auto partner_late = [](double phi) { return phi < 0.6 || phi >= 0.8; };
+  const auto partner_down = [](double) { return true; };
+  const FeedbackConfig shipped;
+  ASSERT_TRUE(shipped.reflex_needs_girdle_support);
+
+  const auto [measured_alone, flexion_alone, passive_alone] = reflex(partner_late, shipped);
+  EXPECT_GE(measured_alone, 2 * 60);  // two swings of a 0.12-s reflex: measured in full
+  EXPECT_EQ(flexion_alone, 0.0);      // ... but the knee is not pulled up
+  EXPECT_FALSE(passive_alone);        // ... and the hip keeps holding
+
+  const auto [measured_carried, flexion_carried, passive_carried] = reflex(partner_down, shipped);
+  EXPECT_EQ(measured_carried, measured_alone);
+  EXPECT_NEAR(flexion_carried, shipped.reflex_knee_flexion_rad, 0.01);
+  EXPECT_TRUE(passive_carried);
+
+  FeedbackConfig ungated = shipped;  // the reflex before 2026-12-02
+  ungated.reflex_needs_girdle_support = false;
+  EXPECT_NEAR(std::get<1>(reflex(partner_late, ungated)), shipped.reflex_knee_flexion_rad, 0.01);
 }
 
 TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {

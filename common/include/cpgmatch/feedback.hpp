@@ -15,7 +15,9 @@
 //                          first reflex_hip_passive_s), so the leg springs absorb it; then the hip drives the
 //                          swing on while the knee is still pulled up. The airborne time keeps a toe that
 //                          scuffs the ground just after toe-off (which is a late toe-off, not an impact) from
-//                          firing the reflex.
+//                          firing the reflex. The reflex acts only while the other leg of the girdle is on
+//                          the ground (reflex_needs_girdle_support); without it the early touchdown is
+//                          measured but the leg is left to carry the girdle.
 //   early toe-off   (ETO): the foot is off the ground in the second half of stance (from mid-stance, where
 //                          the leg passes under the hip and starts to unload; lost there, or lost earlier and
 //                          still not back) before the knee was scheduled to flex. Knee flexion starts at once
@@ -87,6 +89,17 @@ struct FeedbackConfig {
   // whole reflex (this project's reading until 2026-12-02); 0, or reflex_hip_passive false: always driven.
   double reflex_hip_passive_s = 0.04;
   bool reflex_hip_passive = true;  // false: the hip keeps driving during the reflex (ablation)
+  // The knee pull-up fires only while the other leg of the same girdle (front or hind pair) is on the
+  // ground. Why: a girdle is held up by its two legs, and in a trot one of them is in stance. A swing foot
+  // meeting the ground while its partner is also off the ground is the girdle falling onto that foot (the
+  // partner touches down late, or the lift-off failed), not a foot hitting an obstacle, and pulling that
+  // knee up takes away the girdle's only support. Animals do the same with load: a stimulus that flexes a
+  // swinging leg extends a loaded one (phase-dependent reflex reversal, Forssberg 1979), and a loaded leg
+  // is not lifted (Duysens and Pearson 1980). Contact is all this controller senses, so the partner's
+  // contact stands for "the girdle is carried". The early touchdown is still measured for the reflex's
+  // duration (the mismatch is there), only its action is withheld. Measured in docs/model.md ("A reflex
+  // that keeps the girdle carried"). false: the reflex fires whatever the partner does (before 2026-12-02).
+  bool reflex_needs_girdle_support = true;
 
   // Everything off: the open-loop CPG (LTO is still measured).
   static FeedbackConfig none();
@@ -115,7 +128,9 @@ class LegFeedback {
 
   // Call once per control tick with the leg's phase before and after the previous oscillator step and
   // the latest polled contact. dt_s is the control period.
-  FeedbackAction update(double phase, bool contact, double dt_s, const StepTiming& timing);
+  // girdle_partner_contact: the contact of the other leg of the same girdle (FL-FR, HL-HR), same tick.
+  FeedbackAction update(double phase, bool contact, double dt_s, const StepTiming& timing,
+                        bool girdle_partner_contact = true);
 
   void reset();
 
@@ -135,6 +150,7 @@ class LegFeedback {
   double last_flight_s_ = 0.0;  // length of the flight that ended with the latest touchdown
   bool reflex_used_ = false;    // one reflex per swing
   double reflex_time_left_ = 0.0;
+  bool reflex_withheld_ = false;  // this early touchdown is measured but not acted on (no girdle support)
   double early_flex_start_ = -1.0;  // phase at which ETO started knee flexion, this cycle
   double late_touchdown_wait_s_ = 0.0;  // time the phase has waited for touchdown in this stance window
 };

@@ -13,6 +13,9 @@ inline constexpr std::array<std::string_view, kNumLegs> kLegNames{"FL", "FR", "H
 
 inline constexpr bool is_front(int leg) { return leg == kFrontLeft || leg == kFrontRight; }
 
+// The other leg of the same girdle (shoulder or hip pair): FL <-> FR, HL <-> HR.
+inline constexpr int girdle_partner(int leg) { return is_front(leg) ? 1 - leg : 5 - leg; }
+
 template <typename T>
 using PerLeg = std::array<T, kNumLegs>;
 
