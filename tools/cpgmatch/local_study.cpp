@@ -9,11 +9,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <thread>
 
 #include <fmt/format.h>
 
 #include "child_process.hpp"
+#include "cpgmatch/runtime/domain_lease.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/command_objective.hpp"
 #include "cpgmatch/dds/domain.hpp"
@@ -51,8 +53,12 @@ class ProgressBar {
   std::string label_;
 };
 
-// A domain id of this run's own, so that two local studies on one machine do not meet.
-int private_domain() { return 150 + static_cast<int>(getpid() % 80); }
+// A domain id of this run's own, so that two local studies on one machine do not meet: leased from
+// 150-229 (starting at 150 + pid % 80) for as long as the study runs.
+runtime::DomainLease lease_private_domain() {
+  return runtime::DomainLease::acquire(150, 80, static_cast<int>(getpid() % 80),
+                                       runtime::DomainLease::default_lock_dir());
+}
 
 volatile std::sig_atomic_t g_interrupted = 0;
 
@@ -129,7 +135,10 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
                  opts.config_source, workers);
     }
   }
-  const int domain = opts.domain >= 0 ? opts.domain : private_domain();
+  // Held until this function returns, i.e. until the study's services are stopped.
+  std::optional<runtime::DomainLease> lease;
+  if (opts.domain < 0) lease.emplace(lease_private_domain());
+  const int domain = lease ? lease->domain() : opts.domain;
   dds::validate_domain(domain);
   const fs::path dir = opts.out.empty() ? timestamped_results_dir(cfg.name) : opts.out;
   fs::create_directories(dir);
