@@ -1,6 +1,7 @@
 #include "cpgmatch/controller.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace cpgmatch {
 
@@ -11,6 +12,9 @@ CpgController::CpgController(const CpgParameters& params, const ControllerConfig
   for (int leg = 0; leg < kNumLegs; ++leg) {
     feedback_[leg] = LegFeedback(config.feedback);
     timing_[leg] = step_timing(params, leg);
+    const double apart = std::fmod(std::abs(network_.gait().phase_offsets[leg] -
+                                            network_.gait().phase_offsets[girdle_partner(leg)]), 1.0);
+    girdle_alternates_[leg] = std::abs(apart - 0.5) < 0.25;
   }
 }
 
@@ -23,8 +27,10 @@ ControllerOutput CpgController::update(const PerLeg<bool>& contacts) {
   for (int leg = 0; leg < kNumLegs; ++leg) {
     const double phase = network_.phases()[leg];
     const StepTiming& timing = timing_[leg];
-    const FeedbackAction action =
-        feedback_[leg].update(phase, contacts[leg], dt, timing, contacts[girdle_partner(leg)]);
+    // In a bound or a pronk both legs of a girdle swing together: the partner's contact says nothing about
+    // whether the girdle is carried, so it is treated as carried (the reflex is not gated).
+    const bool girdle_carried = !girdle_alternates_[leg] || contacts[girdle_partner(leg)];
+    const FeedbackAction action = feedback_[leg].update(phase, contacts[leg], dt, timing, girdle_carried);
     // No phase deceleration during the start-up ramp: the feet are all down while standing.
     rates[leg] = ramp < 1.0 ? 1.0 : action.phase_rate;
 

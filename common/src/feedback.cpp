@@ -38,7 +38,7 @@ bool LegFeedback::landing_ready(double phase, const StepTiming& timing) const {
 }
 
 FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, const StepTiming& timing,
-                                   bool girdle_partner_contact) {
+                                   bool girdle_carried) {
   const double duty = timing.duty_factor;
   if (!initialised_) {
     // Standing start: the feet are on the ground, so treat the current window as already touched down.
@@ -116,7 +116,7 @@ FeedbackAction LegFeedback::update(double phase, bool contact, double dt_s, cons
         config_.early_touchdown) {
       reflex_used_ = true;
       reflex_time_left_ = config_.reflex_duration_s;
-      reflex_withheld_ = config_.reflex_needs_girdle_support && !girdle_partner_contact;
+      reflex_withheld_ = config_.reflex_needs_girdle_support && !girdle_carried;
     }
   }
 

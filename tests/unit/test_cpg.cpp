@@ -1,7 +1,9 @@
 // Phase locking, trajectory shapes and stance fraction of the CPG.
+#include <algorithm>
 #include <cmath>
 
 #include <set>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -121,6 +123,47 @@ TEST(Trajectory, StanceFractionEqualsTheDutyFactor) {
     const double expected = is_front(leg) ? 0.35 : 0.6;
     EXPECT_NEAR(static_cast<double>(stance[leg]) / total[leg], expected, 0.01) << kLegNames[leg];
   }
+}
+
+// FL's largest extra knee flexion (the early-touchdown reflex) over 4 s: its foot meets the ground again at
+// phase 0.7-0.75 of every swing, with FR's foot forced down or up meanwhile; every other contact follows
+// the schedule. Only early touchdown acts, so no phase differs between the runs.
+double front_left_reflex_flexion(const std::string& gait, bool partner_down_while_fl_stumbles) {
+  CpgParameters p;
+  ControllerConfig cfg;
+  cfg.gait = gait;
+  cfg.startup_ramp_s = 0.0;
+  cfg.feedback.late_touchdown = false;
+  cfg.feedback.early_toeoff = false;
+  ControllerConfig open_loop = cfg;
+  open_loop.feedback = FeedbackConfig::none();
+  CpgController with_reflex(p, cfg), without(p, open_loop);
+  double largest = 0.0;
+  for (int i = 0; i < 2000; ++i) {
+    PerLeg<bool> contacts{};
+    for (int leg = 0; leg < kNumLegs; ++leg) {
+      contacts[leg] = with_reflex.network().phases()[leg] < step_timing(p, leg).duty_factor;
+    }
+    const double fl = with_reflex.network().phases()[kFrontLeft];
+    const bool stumbling = fl >= 0.7 && fl < 0.75;
+    if (stumbling) {
+      contacts[kFrontLeft] = true;
+      contacts[kFrontRight] = partner_down_while_fl_stumbles;
+    }
+    const double extra = with_reflex.update(contacts).commands[kFrontLeft].knee_flexion_rad -
+                         without.update(contacts).commands[kFrontLeft].knee_flexion_rad;
+    largest = std::max(largest, extra);
+  }
+  return largest;
+}
+
+TEST(Controller, TheReflexWaitsForTheGirdlesOtherLegWhereTheGaitAlternatesItsLegsNotInABound) {
+  const double reflex = FeedbackConfig{}.reflex_knee_flexion_rad;
+  // Trot: FR is meant to carry the front while FL swings. Down, the reflex fires; up, it is withheld.
+  EXPECT_NEAR(front_left_reflex_flexion("trot", true), reflex, 0.02);
+  EXPECT_NEAR(front_left_reflex_flexion("trot", false), 0.0, 1e-9);
+  // Bound: FL and FR swing together, so FR off the ground says nothing; the reflex fires.
+  EXPECT_NEAR(front_left_reflex_flexion("bound", false), reflex, 0.02);
 }
 
 TEST(Trajectory, KneeFlexesOnlyInItsWindow) {

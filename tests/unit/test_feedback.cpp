@@ -1,5 +1,6 @@
 // Each feedback mechanism fires on its synthetic contact sequence, and only then.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <tuple>
@@ -35,7 +36,7 @@ Counts run(const std::function<bool(double)>& contact_at, FeedbackConfig cfg = {
   Counts c;
   double phase = 0.0;
   for (int tick = 0; tick < 1500; ++tick) {
-    const auto a = fb.update(phase, contact_at(phase), 0.002, t);
+    const auto a = fb.update(phase, contact_at(phase), 0.002, t, true);
     if (tick >= 500) {
       c.ltd += a.activity.late_touchdown;
       c.etd += a.activity.early_touchdown;
@@ -78,7 +79,7 @@ TEST(Feedback, LateTouchdownHoldsThePhaseOnlyForTheMaxWaitButKeepsMeasuring) {
   bool in_second_stance = false;
   for (int tick = 0; tick < 1500; ++tick) {
     const bool contact = phase >= 0.3 && phase < 0.5;
-    const auto a = fb.update(phase, contact, 0.002, t);
+    const auto a = fb.update(phase, contact, 0.002, t, true);
     if (phase < 0.3) in_second_stance = true;
     if (in_second_stance && phase < 0.3) {
       held_s += a.phase_rate < 1.0 ? 0.002 : 0.0;
@@ -113,7 +114,7 @@ TEST(Feedback, TheReflexsHipIsPassiveForTheImpactOnlyThenDrivesWhileTheKneeIsSti
     int passive = 0, driven_with_knee_up = 0;
     double phase = 0.0;
     for (int tick = 0; tick < 1000; ++tick) {
-      const auto a = fb.update(phase, phase < 0.5 || (phase >= 0.7 && phase < 0.75), 0.002, t);
+      const auto a = fb.update(phase, phase < 0.5 || (phase >= 0.7 && phase < 0.75), 0.002, t, true);
       passive += a.hip_passive;
       driven_with_knee_up += a.activity.early_touchdown && !a.hip_passive && a.extra_knee_flexion > 0.1;
       phase = std::fmod(phase + 0.002 * a.phase_rate, 1.0);
@@ -175,6 +176,32 @@ TEST(Feedback, TheReflexIsWithheldButMeasuredWhileTheGirdlesOtherLegIsOffTheGrou
   EXPECT_NEAR(std::get<1>(reflex(partner_late, ungated)), shipped.reflex_knee_flexion_rad, 0.01);
 }
 
+TEST(Feedback, AReflexWithheldInOneSwingFiresInTheNextWhenTheGirdleIsCarriedAndStaysWithheldIfThePartnerLands) {
+  // The stumble at phase 0.7 in every swing. Cycle 0: the partner is up from 0.6 to 0.72, so it lands
+  // 0.02 cycles into the withheld reflex, which must stay withheld. Cycle 1: the partner is down; it fires.
+  const StepTiming t = test_timing();
+  LegFeedback fb{FeedbackConfig{}};
+  double phase = 0.0;
+  int cycle = 0;
+  std::array<double, 2> largest{0.0, 0.0};
+  std::array<int, 2> measured{0, 0};
+  for (int tick = 0; tick < 1000; ++tick) {
+    const bool contact = phase < 0.5 || (phase >= 0.7 && phase < 0.75);
+    const bool partner = cycle == 1 || phase < 0.6 || phase >= 0.72;
+    const auto a = fb.update(phase, contact, 0.002, t, partner);
+    largest[cycle] = std::max(largest[cycle], a.extra_knee_flexion);
+    measured[cycle] += a.activity.early_touchdown;
+    const double next = phase + 0.002 * a.phase_rate;
+    if (next >= 1.0) ++cycle;
+    phase = std::fmod(next, 1.0);
+    if (cycle > 1) break;
+  }
+  EXPECT_EQ(largest[0], 0.0);
+  EXPECT_GE(measured[0], 60);
+  EXPECT_NEAR(largest[1], FeedbackConfig{}.reflex_knee_flexion_rad, 0.01);
+  EXPECT_GE(measured[1], 60);
+}
+
 TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
   // Contact lost at 0.3 (after mid-stance, 0.25), before the knee was due to flex at 0.4.
   const StepTiming t = test_timing();
@@ -183,7 +210,7 @@ TEST(Feedback, EarlyToeoffStartsKneeFlexionEarly) {
   int eto = 0;
   for (int tick = 0; tick < 1000; ++tick) {
     const bool contact = phase < 0.3 || phase >= 0.999;
-    const auto a = fb.update(phase, contact, 0.002, t);
+    const auto a = fb.update(phase, contact, 0.002, t, true);
     if (tick >= 500 && a.activity.early_toeoff) {
       ++eto;
       flex_start = a.knee_flex_start;
@@ -206,7 +233,7 @@ TEST(Feedback, EarlyToeoffIsCancelledWhenTheGroundComesBack) {
   for (int tick = 0; tick < 1000; ++tick) {
     const bool gap = phase >= 0.3 && phase < 0.306;
     const bool contact = phase < 0.5 && !gap;
-    const auto a = fb.update(phase, contact, 0.002, t);
+    const auto a = fb.update(phase, contact, 0.002, t, true);
     if (tick >= 500) {
       eto_during_gap += gap && a.activity.early_toeoff;
       eto_after_return += phase > 0.32 && phase < 0.4 && a.activity.early_toeoff;
@@ -235,7 +262,7 @@ TEST(Feedback, AFootBouncingOffInTheFirstHalfOfStanceIsNoEarlyToeoff) {
     *first_flex_start = -1.0;
     for (int tick = 0; tick < 1000; ++tick) {
       const bool bounce = phase >= 0.05 && phase < 0.15;
-      const auto a = fb.update(phase, phase < 0.5 && !bounce, 0.002, t);
+      const auto a = fb.update(phase, phase < 0.5 && !bounce, 0.002, t, true);
       if (tick >= 500 && a.activity.early_toeoff) {
         ++eto;
         if (*first_flex_start < 0.0) *first_flex_start = a.knee_flex_start;
@@ -258,7 +285,7 @@ TEST(Feedback, AFootStillOffTheGroundAtMidStanceStartsTheKneeFlexionThere) {
   LegFeedback fb;
   double phase = 0.0, first_flex_start = -1.0;
   for (int tick = 0; tick < 1000; ++tick) {
-    const auto a = fb.update(phase, phase < 0.1 || phase >= 0.999, 0.002, t);
+    const auto a = fb.update(phase, phase < 0.1 || phase >= 0.999, 0.002, t, true);
     if (tick >= 500 && a.activity.early_toeoff && first_flex_start < 0.0) first_flex_start = a.knee_flex_start;
     if (tick >= 500 && phase < 0.249) {
       EXPECT_FALSE(a.activity.early_toeoff) << "at phase " << phase;

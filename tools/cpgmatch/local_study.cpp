@@ -137,7 +137,17 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   }
   // Held until this function returns, i.e. until the study's services are stopped.
   std::optional<runtime::DomainLease> lease;
-  if (opts.domain < 0) lease.emplace(lease_private_domain());
+  if (opts.domain < 0) {
+    lease.emplace(lease_private_domain());
+  } else if (opts.domain >= 150 && opts.domain < 230) {
+    // An explicit domain inside the leased range: take its lease too, so no leasing run picks it meanwhile;
+    // if another local study holds it, say so (the user asked for it, so the run goes ahead).
+    try {
+      lease.emplace(runtime::DomainLease::acquire(opts.domain, 1, 0, runtime::DomainLease::default_lock_dir()));
+    } catch (const std::runtime_error&) {
+      fmt::print(stderr, "warning: DDS domain {} is leased by another local study on this host\n", opts.domain);
+    }
+  }
   const int domain = lease ? lease->domain() : opts.domain;
   dds::validate_domain(domain);
   const fs::path dir = opts.out.empty() ? timestamped_results_dir(cfg.name) : opts.out;

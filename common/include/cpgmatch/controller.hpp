@@ -44,6 +44,9 @@ class CpgController {
   PhaseOscillatorNetwork network_;
   PerLeg<LegFeedback> feedback_;
   PerLeg<StepTiming> timing_;
+  // The gait moves this leg and its girdle partner half a cycle apart (trot, pace, walk), so one of them is
+  // meant to carry the girdle while the other swings; not in a bound or a pronk (the reflex's girdle gate).
+  PerLeg<bool> girdle_alternates_{};
   double time_s_ = 0.0;
 };
 

@@ -16,7 +16,7 @@
 //                          swing on while the knee is still pulled up. The airborne time keeps a toe that
 //                          scuffs the ground just after toe-off (which is a late toe-off, not an impact) from
 //                          firing the reflex. The reflex acts only while the other leg of the girdle is on
-//                          the ground (reflex_needs_girdle_support); without it the early touchdown is
+//                          the ground (reflex_needs_girdle_support); otherwise the early touchdown is
 //                          measured but the leg is left to carry the girdle.
 //   early toe-off   (ETO): the foot is off the ground in the second half of stance (from mid-stance, where
 //                          the leg passes under the hip and starts to unload; lost there, or lost earlier and
@@ -97,8 +97,10 @@ struct FeedbackConfig {
   // swinging leg extends a loaded one (phase-dependent reflex reversal, Forssberg 1979), and a loaded leg
   // is not lifted (Duysens and Pearson 1980). Contact is all this controller senses, so the partner's
   // contact stands for "the girdle is carried". The early touchdown is still measured for the reflex's
-  // duration (the mismatch is there), only its action is withheld. Measured in docs/model.md ("A reflex
-  // that keeps the girdle carried"). false: the reflex fires whatever the partner does (before 2026-12-02).
+  // duration (the mismatch is there), only its action is withheld. Only where the gait alternates a girdle's
+  // legs (trot, pace, walk); in a bound or a pronk CpgController passes the girdle as carried. Measured in
+  // docs/model.md ("A reflex that keeps the girdle carried"). false: the reflex fires whatever the partner
+  // does (before 2026-12-02).
   bool reflex_needs_girdle_support = true;
 
   // Everything off: the open-loop CPG (LTO is still measured).
@@ -128,9 +130,9 @@ class LegFeedback {
 
   // Call once per control tick with the leg's phase before and after the previous oscillator step and
   // the latest polled contact. dt_s is the control period.
-  // girdle_partner_contact: the contact of the other leg of the same girdle (FL-FR, HL-HR), same tick.
-  FeedbackAction update(double phase, bool contact, double dt_s, const StepTiming& timing,
-                        bool girdle_partner_contact = true);
+  // girdle_carried: the other leg of the same girdle (FL-FR, HL-HR) is on the ground this tick, or the gait
+  // swings both together (bound, pronk), where the partner says nothing (CpgController decides).
+  FeedbackAction update(double phase, bool contact, double dt_s, const StepTiming& timing, bool girdle_carried);
 
   void reset();
 

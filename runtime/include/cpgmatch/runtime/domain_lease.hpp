@@ -16,12 +16,14 @@ namespace cpgmatch::runtime {
 class DomainLease {
  public:
   // The first free domain in [first, first + count), starting at first + (start_offset % count) and
-  // wrapping. Lock files are lock_dir/cpgmatch-domain-<id>.lock. Throws std::runtime_error naming lock_dir
-  // when no lock file can be created there, and when all `count` domains are leased.
+  // wrapping. Lock files are lock_dir/cpgmatch-domain-<id>.lock; a file this user may not open (another
+  // user's, made private) counts as taken. Throws std::runtime_error naming the file when a lock file can
+  // neither be opened nor created or flock fails for another reason than "held", naming the range when all
+  // `count` domains are leased; std::invalid_argument when count <= 0.
   static DomainLease acquire(int first, int count, int start_offset, const std::filesystem::path& lock_dir);
 
-  // The host-wide lock directory, the system temp dir ($TMPDIR or /tmp): every user's runs share loopback
-  // domains, so they share the lock files too (not $XDG_RUNTIME_DIR, which is per user).
+  // The host-wide lock directory, /tmp: every user's runs share loopback domains, so they share the lock
+  // files too (not $TMPDIR or $XDG_RUNTIME_DIR, which can be per user).
   static std::filesystem::path default_lock_dir();
 
   DomainLease(DomainLease&& other) noexcept;
