@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <sys/wait.h>
 #include <sys/prctl.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -35,7 +36,11 @@ EvaluationOutcome run_command_objective(const std::string& command, const std::s
   EvaluationOutcome out;
   const auto start = std::chrono::steady_clock::now();
   int in_pipe[2], out_pipe[2];
-  if (pipe(in_pipe) != 0 || pipe(out_pipe) != 0) {
+  // Close-on-exec: a worker runs several slots at once, and a child forked by another thread while these
+  // pipes exist would otherwise inherit their ends and keep this command's stdin (and stdout) open: neither
+  // command sees end-of-file and both hang until their timeouts (seen in CI). dup2 onto 0 and 1 in the
+  // child clears the flag for the two ends this command needs.
+  if (pipe2(in_pipe, O_CLOEXEC) != 0 || pipe2(out_pipe, O_CLOEXEC) != 0) {
     out.message = fmt::format("cannot create pipes: {}", std::strerror(errno));
     return out;
   }
