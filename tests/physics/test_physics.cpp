@@ -198,14 +198,19 @@ TEST(Physics, SameSeedSameResultDifferentRoughGroundDifferentResult) {
   EXPECT_NE(ra.breakdown.distance_m, rc.breakdown.distance_m);
 }
 
+// Whether `job` falls with its feedback settings replaced by `feedback` (FeedbackConfig::none(): open loop).
+bool falls_with_feedback(SimRolloutJob job, const FeedbackConfig& feedback) {
+  job.settings.controller.feedback = feedback;
+  return run_sim_rollout(job).fell;
+}
+
 TEST(Physics, OnGentlyRoughGroundFeedbackFallsNoMoreOftenThanOpenLoop) {
   int falls_with = 0, falls_without = 0;
   for (std::uint64_t seed = 0; seed < 4; ++seed) {
     SimRolloutJob job = job_with("matched-trot.yaml", "rough:0.003", 10.0, 10.0);
     job.seed = seed;
     falls_with += run_sim_rollout(job).fell;
-    job.settings.controller.feedback = FeedbackConfig::none();
-    falls_without += run_sim_rollout(job).fell;
+    falls_without += falls_with_feedback(job, FeedbackConfig::none());
   }
   EXPECT_LE(falls_with, falls_without);
 }
@@ -223,8 +228,7 @@ TEST(Physics, OnAFiveCentimetreStepUpTheFeedbackCarriesATrotThatTheOpenLoopTrips
     set_gait(job.params, {-0.21635711675320726, 0.28734797037527804, 0.3, 0.75, 0.0, 0.5});
     job.seed = seed;
     falls_with += run_sim_rollout(job).fell;
-    job.settings.controller.feedback = FeedbackConfig::none();
-    falls_without += run_sim_rollout(job).fell;
+    falls_without += falls_with_feedback(job, FeedbackConfig::none());
   }
   EXPECT_LT(falls_with, falls_without);
   EXPECT_EQ(falls_with, 0);
@@ -246,11 +250,10 @@ TEST(Physics, DownAFiveCentimetreStepTheReflexWithAHipThatDrivesOnAfterTheImpact
     job.seed = seed;
     ASSERT_DOUBLE_EQ(job.settings.controller.feedback.reflex_hip_passive_s, 0.04);
     falls_shipped += run_sim_rollout(job).fell;
-    SimRolloutJob whole = job;
-    whole.settings.controller.feedback.reflex_hip_passive_s = whole.settings.controller.feedback.reflex_duration_s;
-    falls_whole_reflex_passive += run_sim_rollout(whole).fell;
-    job.settings.controller.feedback = FeedbackConfig::none();
-    falls_open_loop += run_sim_rollout(job).fell;
+    FeedbackConfig whole = job.settings.controller.feedback;
+    whole.reflex_hip_passive_s = whole.reflex_duration_s;
+    falls_whole_reflex_passive += falls_with_feedback(job, whole);
+    falls_open_loop += falls_with_feedback(job, FeedbackConfig::none());
   }
   EXPECT_EQ(falls_shipped, 0);
   EXPECT_EQ(falls_open_loop, 3);
@@ -285,11 +288,10 @@ TEST(Physics, AReflexWithheldWhileTheOtherLegOfTheGirdleIsUpKeepsTheGirdleCarrie
     });
     falls_shipped += shipped.fell;
     EXPECT_GT(withheld_onsets, 0);
-    SimRolloutJob ungated = job;
-    ungated.settings.controller.feedback.reflex_needs_girdle_support = false;
-    falls_ungated += run_sim_rollout(ungated).fell;
-    job.settings.controller.feedback = FeedbackConfig::none();
-    falls_open_loop += run_sim_rollout(job).fell;
+    FeedbackConfig ungated = job.settings.controller.feedback;
+    ungated.reflex_needs_girdle_support = false;
+    falls_ungated += falls_with_feedback(job, ungated);
+    falls_open_loop += falls_with_feedback(job, FeedbackConfig::none());
   }
   EXPECT_EQ(falls_shipped, 0);
   EXPECT_EQ(falls_open_loop, 0);

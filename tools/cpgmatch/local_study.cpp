@@ -144,8 +144,9 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
     // if another local study holds it, say so (the user asked for it, so the run goes ahead).
     try {
       lease.emplace(runtime::DomainLease::acquire(opts.domain, 1, 0, runtime::DomainLease::default_lock_dir()));
-    } catch (const std::runtime_error&) {
-      fmt::print(stderr, "warning: DDS domain {} is leased by another local study on this host\n", opts.domain);
+    } catch (const std::runtime_error& e) {
+      // Usually "in use by another local study"; the lock file may also be unusable. Either way, say why.
+      fmt::print(stderr, "warning: DDS domain {} is not leased for this run: {}\n", opts.domain, e.what());
     }
   }
   const int domain = lease ? lease->domain() : opts.domain;
