@@ -50,6 +50,9 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
 
   PerLeg<bool> contacts{};
   ControllerOutput output;
+  bool commanded = false;  // output holds a command already sent to the plant
+  double tracking_sq_sum = 0.0;
+  long tracking_samples = 0;
   const double start_height = plant.state().trunk.height_m;
   for (long step = 0; step < total_steps; ++step) {
     const bool poll = step % contact_every == 0;
@@ -70,8 +73,17 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
           result.fall_time_s = state.time_s;
           break;
         }
+        if (commanded && state.time_s >= settings.controller.startup_ramp_s) {
+          for (int leg = 0; leg < kNumLegs; ++leg) {
+            if (output.commands[leg].hip_passive) continue;
+            const double error = output.commands[leg].hip_angle_rad - state.legs[leg].hip_angle_rad;
+            tracking_sq_sum += error * error;
+            ++tracking_samples;
+          }
+        }
         output = controller.update(contacts);
         plant.command(output.commands);
+        commanded = true;
         if (step >= eval_start_step) {
           CostSample sample;
           sample.time_s = state.time_s;
@@ -92,6 +104,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   }
 
   result.sim_time_s = plant.state().time_s;
+  if (tracking_samples > 0) result.hip_tracking_rms_rad = std::sqrt(tracking_sq_sum / tracking_samples);
   const double expected_pitch_hz = params.frequency * pitch_harmonic(Gait::named(settings.controller.gait));
   result.breakdown = recorder.evaluate(params.frequency, expected_pitch_hz);
   result.cost = result.fell ? recorder.fall_cost(result.fall_time_s, total_time, expected_pitch_hz)

@@ -117,6 +117,35 @@ double passive_hip_excursion(const MortiModel& model, double passive_s) {
   return worst;
 }
 
+TEST(Physics, TheHipsFollowAMatchedTrotAndLagAPatternBeyondTheirMotor) {
+  // hip_tracking_rms_rad measures how far the hips trail their pattern. The matched trot's hips follow it
+  // within about a tenth of a radian. Random point 37 of tests/bench/feedback_ablation.py (amplitude 0.51 rad,
+  // a 0.33 front duty factor: each front hip swings about 1.5 rad in 0.67 s, then sweeps the loaded leg back)
+  // lags by tenths of a radian, open loop. The same gait on a hip motor with twice the torque and speed lags
+  // clearly less: the motor's torque-speed line is part of that lag (the position loop's stiffness under load
+  // is another: doubling its gain instead also lowers it, 0.37 -> 0.30 rad, `cpgmatch rollout --model`).
+  SimRolloutJob trot = job_with("matched-trot.yaml", "flat", 4.0, 2.0);
+  trot.settings.controller.feedback = FeedbackConfig::none();
+  const RolloutResult matched = run_sim_rollout(trot);
+  ASSERT_FALSE(matched.fell);
+  EXPECT_LT(matched.hip_tracking_rms_rad, 0.15);
+  EXPECT_GT(matched.hip_tracking_rms_rad, 0.0) << "a real motor always trails a moving target a little";
+
+  SimRolloutJob wide = job_with("", "flat", 4.0, 2.0);
+  set_gait(wide.params, {0.0295, 0.5114, 0.3257, 0.5629, 0.2514, 0.4264});
+  wide.settings.controller.feedback = FeedbackConfig::none();
+  SimRolloutJob strong = wide;
+  strong.model.hip_motor.stall_torque_nm *= 2.0;
+  strong.model.hip_motor.no_load_speed_rad_s *= 2.0;
+  const RolloutResult lagging = run_sim_rollout(wide);
+  const RolloutResult following = run_sim_rollout(strong);
+  ASSERT_FALSE(lagging.fell);
+  ASSERT_FALSE(following.fell) << "a shorter rollout would measure the lag over another window";
+  EXPECT_GT(lagging.hip_tracking_rms_rad, 0.25);
+  EXPECT_LT(following.hip_tracking_rms_rad, 0.8 * lagging.hip_tracking_rms_rad)
+      << following.hip_tracking_rms_rad << " vs " << lagging.hip_tracking_rms_rad;
+}
+
 TEST(Physics, APassiveHipResistsLikeABackdrivenGearedMotor) {
   // Standing, the FL hip held 0.3 rad forward, then every hip motor passive for the reflex's 0.12 s: the
   // loaded legs push the hips around. A back-driven gearbox (friction, reflected rotor inertia) slows that

@@ -44,6 +44,10 @@ void print_summary(const RolloutResult& r, const sim::SimRolloutJob& job) {
   fmt::print("    J_contact        {:8.4f}\n", b.terms.contact);
   fmt::print("    J_periodicity    {:8.4f}   (Hz)\n", b.terms.periodicity);
   fmt::print("  normalized torque  {:8.4f}   (N m / (m/s))\n", b.normalized_torque);
+  if (r.hip_tracking_rms_rad >= 0.0) {
+    fmt::print("  hip tracking       {:8.4f}   (rad, RMS of command minus hip angle after the start-up ramp)\n",
+               r.hip_tracking_rms_rad);
+  }
 }
 
 }  // namespace

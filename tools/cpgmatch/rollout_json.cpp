@@ -29,6 +29,8 @@ nlohmann::json to_json(const RolloutResult& r) {
         {"early_touchdown", b.feedback_fraction.early_touchdown},
         {"early_toeoff", b.feedback_fraction.early_toeoff},
         {"late_toeoff", b.feedback_fraction.late_toeoff}}},
+      {"hip_tracking_rms_rad",
+       r.hip_tracking_rms_rad >= 0.0 ? nlohmann::json(r.hip_tracking_rms_rad) : nlohmann::json(nullptr)},
       {"sim_time_s", r.sim_time_s},
       {"wall_time_s", r.wall_time_s},
       {"params", params_to_json(r.params)},

@@ -29,6 +29,13 @@ struct RolloutResult {
   double fall_time_s = -1.0;
   double sim_time_s = 0.0;
   double wall_time_s = 0.0;
+  // How closely the hips followed the pattern: root mean square over legs and control ticks of the hip angle
+  // commanded at one tick minus the angle measured at the next, radians. Counted from the end of the
+  // start-up ramp to the end of the rollout (or the fall), over ticks whose hip motor was driving (not
+  // passive for a reflex); -1 when there was no such tick (a fall during the ramp). A pattern that asks more
+  // of a loaded hip than its motor's torque-speed line and its position loop give lags by tenths of a
+  // radian; a matched trot's by about 0.1 (docs/model.md, "Which random gaits the feedback breaks").
+  double hip_tracking_rms_rad = -1.0;
   CpgParameters params;
 };
 
