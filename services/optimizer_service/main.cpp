@@ -112,6 +112,22 @@ class DdsOutbox final : public Outbox {
   void publish_state(const msg::StudyState& s) override { check(states_.write(s), "study state"); }
   void reply(const msg::CommandReply& r) override { check(replies_.write(r), "command reply"); }
 
+  // Gives what was already published, and so acknowledged by a committed transaction, up to `timeout` to
+  // reach its readers. Called before the service stops on a store error: a study accepted a few
+  // milliseconds before the disk filled must still be answered, not lost with the writers as the process
+  // exits. False if some reader had not acknowledged everything in time.
+  bool flush(std::chrono::milliseconds timeout) {
+    const auto deadline = Clock::now() + timeout;
+    auto left = [&] {
+      return std::max(std::chrono::milliseconds(0),
+                      std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()));
+    };
+    bool all = replies_.wait_for_acknowledgments(left());
+    all = states_.wait_for_acknowledgments(left()) && all;
+    all = trials_.wait_for_acknowledgments(left()) && all;
+    return all;
+  }
+
  private:
   static void check(bool ok, const char* what) {
     if (!ok) spdlog::warn("DDS write of a {} failed", what);
@@ -234,37 +250,46 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
     outbox.release();
     record(times.publish, publish_start);
   };
-  while (!g_stop) {
-    auto events = queue.drain(std::chrono::milliseconds(20));
-    // A long burst goes in chunks (kMaxChunkEvents samples or kMaxChunk of handling, whichever comes
-    // first), so the first sample of a burst is not acknowledged only after the last one is handled.
-    constexpr std::size_t kMaxChunkEvents = 16;
-    constexpr auto kMaxChunk = std::chrono::milliseconds(2);
-    for (std::size_t first = 0; first < events.size();) {
-      std::size_t last = first;
-      in_one_transaction([&] {
-        const auto chunk_start = Clock::now();
-        queue_wait.add(seconds_between(events[first].arrived, chunk_start));
-        while (last < events.size() && last - first < kMaxChunkEvents && Clock::now() - chunk_start < kMaxChunk) {
-          dispatch(coordinator, events[last++]);
+  try {
+    while (!g_stop) {
+      auto events = queue.drain(std::chrono::milliseconds(20));
+      // A long burst goes in chunks (kMaxChunkEvents samples or kMaxChunk of handling, whichever comes
+      // first), so the first sample of a burst is not acknowledged only after the last one is handled.
+      constexpr std::size_t kMaxChunkEvents = 16;
+      constexpr auto kMaxChunk = std::chrono::milliseconds(2);
+      for (std::size_t first = 0; first < events.size();) {
+        std::size_t last = first;
+        in_one_transaction([&] {
+          const auto chunk_start = Clock::now();
+          queue_wait.add(seconds_between(events[first].arrived, chunk_start));
+          while (last < events.size() && last - first < kMaxChunkEvents && Clock::now() - chunk_start < kMaxChunk) {
+            dispatch(coordinator, events[last++]);
+          }
+        }, PhaseTimes{&chunk_handling, &chunk_commit, &chunk_publish});
+        // Handled = committed and its effects published.
+        const auto handled = Clock::now();
+        for (std::size_t i = first; i < last; ++i) {
+          if (!std::holds_alternative<ModelResult>(events[i].sample)) {
+            sample_latency.add(seconds_between(events[i].arrived, handled));
+          }
         }
-      }, PhaseTimes{&chunk_handling, &chunk_commit, &chunk_publish});
-      // Handled = committed and its effects published.
-      const auto handled = Clock::now();
-      for (std::size_t i = first; i < last; ++i) {
-        if (!std::holds_alternative<ModelResult>(events[i].sample)) {
-          sample_latency.add(seconds_between(events[i].arrived, handled));
-        }
+        first = last;
       }
-      first = last;
+      const auto tick_start = Clock::now();
+      in_one_transaction([&] { coordinator.tick(monotonic_now_s()); }, PhaseTimes{nullptr, &tick_commit, &tick_publish});
+      tick_duration.add(seconds_between(tick_start, Clock::now()));
+      if (g_print_stats) {
+        g_print_stats = 0;
+        log_latency();
+      }
     }
-    const auto tick_start = Clock::now();
-    in_one_transaction([&] { coordinator.tick(monotonic_now_s()); }, PhaseTimes{nullptr, &tick_commit, &tick_publish});
-    tick_duration.add(seconds_between(tick_start, Clock::now()));
-    if (g_print_stats) {
-      g_print_stats = 0;
-      log_latency();
+  } catch (const study::StoreWriteError&) {
+    // Stop (run_reporting_errors names the store), but first let replies and states already committed reach
+    // their readers: the rolled-back transaction published nothing, the earlier ones did.
+    if (!dds_outbox.flush(std::chrono::seconds(2))) {
+      spdlog::warn("stopping on a store error: some published replies or states were not acknowledged in 2 s");
     }
+    throw;
   }
   log_latency();
   spdlog::info("optimizer stopping; waiting for running model jobs; every study is in {}", store_path);
