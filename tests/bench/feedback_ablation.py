@@ -22,10 +22,12 @@ Points come from a fixed RNG seed (42) so runs are comparable across model chang
 import concurrent.futures as cf
 import json
 import math
+import os
 import random
 import statistics as st
 import subprocess
 import sys
+import tempfile
 
 build = sys.argv[1]
 n = int(sys.argv[2]) if len(sys.argv) > 2 else 100
@@ -94,21 +96,28 @@ def sign_test_p(a, b):
 
 
 pairs = list(zip(results[0::2], results[1::2], jobs[0::2]))
+
+
+def counts(part):
+    """(falls with feedback, falls without, rollouts falling only with, only without) over (on, off, job) pairs."""
+    return (sum(on["fell"] for on, _, _ in part), sum(off["fell"] for _, off, _ in part),
+            sum(on["fell"] and not off["fell"] for on, off, _ in part),
+            sum(off["fell"] and not on["fell"] for on, off, _ in part))
+
+
 if save:  # every pair, for tracing single points with `cpgmatch rollout --seed SEED --set ...`
     with open(save, "w") as out:
         json.dump([{"seed": job[2], "point": job[0], "feedback": on, "open_loop": off} for on, off, job in pairs],
                   out, indent=1)
-only_on = [(job[2], on) for on, off, job in pairs if on["fell"] and not off["fell"]]
-only_off = [(job[2], off) for on, off, job in pairs if off["fell"] and not on["fell"]]
+falls_with, _, only_with, only_without = counts(pairs)
 print(f"{terrain} paired over {len(pairs)} rollouts ({n} points x {repeats} seeds): fall only with feedback "
-      f"{len(only_on)}, only without {len(only_off)}, both {sum(on['fell'] and off['fell'] for on, off, _ in pairs)}; "
-      f"sign test p = {sign_test_p(len(only_on), len(only_off)):.3g}")
+      f"{only_with}, only without {only_without}, both {falls_with - only_with}; "
+      f"sign test p = {sign_test_p(only_with, only_without):.3g}")
 for r in range(repeats):
-    part = pairs[r * n:(r + 1) * n]
-    print(f"  seeds i + {1000 * r}: falls with feedback {sum(on['fell'] for on, _, _ in part)}, "
-          f"without {sum(off['fell'] for _, off, _ in part)}")
+    falls_with, falls_without, _, _ = counts(pairs[r * n:(r + 1) * n])
+    print(f"  seeds i + {1000 * r}: falls with feedback {falls_with}, without {falls_without}")
 print("  fall only with feedback (seed: fall time s): " +
-      ", ".join(f"{seed}: {r['fall_time_s']:.1f}" for seed, r in only_on))
+      ", ".join(f"{job[2]}: {on['fall_time_s']:.1f}" for on, off, job in pairs if on["fell"] and not off["fell"]))
 
 
 def print_split(title, key, edges):
@@ -118,14 +127,12 @@ def print_split(title, key, edges):
     rows = []
     for lo, hi in zip(edges, edges[1:]):
         part = [(on, off, job) for on, off, job in pairs if lo <= key(on, off, job) < hi]
-        only_with = sum(on["fell"] and not off["fell"] for on, off, _ in part)
-        only_without = sum(off["fell"] and not on["fell"] for on, off, _ in part)
+        falls_with, falls_without, only_with, only_without = counts(part)
         worse, better = points_worse_better(part)
-        print(f"    [{lo:+.2f}, {hi:+.2f}): {len(part):3d} rollouts, falls {sum(on['fell'] for on, _, _ in part):3d} / "
-              f"{sum(off['fell'] for _, off, _ in part):3d}, only {only_with:3d} / {only_without:3d} "
-              f"(p = {sign_test_p(only_with, only_without):.2g}); points {worse} / {better} "
-              f"(p = {sign_test_p(worse, better):.2g})")
-        rows.append((lo, hi, len(part), sum(on["fell"] for on, _, _ in part), sum(off["fell"] for _, off, _ in part)))
+        print(f"    [{lo:+.2f}, {hi:+.2f}): {len(part):3d} rollouts, falls {falls_with:3d} / {falls_without:3d}, "
+              f"only {only_with:3d} / {only_without:3d} (p = {sign_test_p(only_with, only_without):.2g}); "
+              f"points {worse} / {better} (p = {sign_test_p(worse, better):.2g})")
+        rows.append((lo, hi, len(part), falls_with, falls_without))
     return rows
 
 
@@ -154,8 +161,6 @@ by_touchdown = print_split("commanded touchdown angle (hip offset + amplitude, r
 
 def draw(rows, path):
     """Grouped bars: share of rollouts that fell with and without feedback, per touchdown-angle bin."""
-    import os
-    import tempfile
     with tempfile.NamedTemporaryFile("w", suffix=".dat", delete=False) as data:
         for lo, hi, count, with_fb, without in rows:
             label = f"{lo:.2f}-{hi:.2f}"
