@@ -29,6 +29,16 @@ bool finite_state(const PlantState& s) {
 
 }  // namespace
 
+const char* to_string(RolloutOutcome outcome) {
+  switch (outcome) {
+    case RolloutOutcome::kCompleted: return "completed";
+    case RolloutOutcome::kFell: return "fell";
+    case RolloutOutcome::kPlantFault: return "plant_fault";
+    case RolloutOutcome::kDiverged: return "diverged";
+  }
+  return "unknown";
+}
+
 RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const RolloutSettings& settings,
                           std::uint64_t seed, const TraceSink& trace) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -54,6 +64,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   double tracking_sq_sum = 0.0;
   long tracking_samples = 0;
   const double start_height = plant.state().trunk.height_m;
+  double ended_at_s = -1.0;  // when a fall, a fault or a divergence ended the rollout early
   for (long step = 0; step < total_steps; ++step) {
     const bool poll = step % contact_every == 0;
     const bool control = step % control_every == 0;
@@ -65,12 +76,28 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
         contacts = sensor.poll(state.time_s, forces);
       }
       if (control) {
-        const bool fell = !finite_state(state) ||
-                          std::abs(state.trunk.pitch_rad) > settings.cost.fall_max_abs_pitch_rad ||
+        // A fault or a blow-up first: either makes the state meaningless, and neither is the gait's doing.
+        if (auto fault = plant.fault()) {
+          result.outcome = RolloutOutcome::kPlantFault;
+          result.outcome_message = fmt::format("plant fault at t = {:.3f} s: {}", state.time_s, *fault);
+          ended_at_s = state.time_s;
+          break;
+        }
+        if (!finite_state(state)) {
+          result.outcome = RolloutOutcome::kDiverged;
+          result.outcome_message = fmt::format(
+              "simulation diverged at t = {:.3f} s: non-finite trunk state (x {}, height {}, pitch {})", state.time_s,
+              state.trunk.x_m, state.trunk.height_m, state.trunk.pitch_rad);
+          ended_at_s = state.time_s;
+          break;
+        }
+        const bool fell = std::abs(state.trunk.pitch_rad) > settings.cost.fall_max_abs_pitch_rad ||
                           state.trunk.height_m < std::min(settings.cost.fall_min_height_m, 0.5 * start_height);
         if (fell) {
+          result.outcome = RolloutOutcome::kFell;
           result.fell = true;
           result.fall_time_s = state.time_s;
+          ended_at_s = state.time_s;
           break;
         }
         if (commanded && state.time_s >= settings.controller.startup_ramp_s) {
@@ -107,15 +134,20 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   if (tracking_samples > 0) result.hip_tracking_rms_rad = std::sqrt(tracking_sq_sum / tracking_samples);
   const double expected_pitch_hz = params.frequency * pitch_harmonic(Gait::named(settings.controller.gait));
   result.breakdown = recorder.evaluate(params.frequency, expected_pitch_hz);
-  result.cost = result.fell ? recorder.fall_cost(result.fall_time_s, total_time, expected_pitch_hz)
-                            : result.breakdown.cost;
+  // A fault or a divergence gets the fall cost as a placeholder: the optimizer never learns from it (its
+  // outcome says so), but every report keeps a finite cost.
+  result.cost = ended_at_s >= 0.0 ? recorder.fall_cost(ended_at_s, total_time, expected_pitch_hz)
+                                  : result.breakdown.cost;
   result.breakdown.cost = result.cost;
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
 }
 
 CpgParameters load_parameters(const std::string& path, CpgParameters base) {
-  const YamlReader reader = YamlReader::from_file(path);
+  return parse_parameters(YamlReader::from_file(path), base);
+}
+
+CpgParameters parse_parameters(const YamlReader& reader, CpgParameters base) {
   // Accept either a flat mapping or one nested under `params:`.
   const YamlReader map = reader.has("params") ? reader.child("params") : reader;
   map.for_each_number([&](const std::string& key, double value, const std::string& origin) {
@@ -125,7 +157,10 @@ CpgParameters load_parameters(const std::string& path, CpgParameters base) {
 }
 
 RolloutSettings load_rollout_settings(const std::string& path) {
-  const YamlReader r = YamlReader::from_file(path);
+  return parse_rollout_settings(YamlReader::from_file(path));
+}
+
+RolloutSettings parse_rollout_settings(const YamlReader& r) {
   r.reject_unknown_keys({"entrain_s", "eval_s", "controller", "contact_sensor", "cost"});
   RolloutSettings s;
   // The same ranges as `cpgmatch rollout --entrain/--eval` and a study's rollout block: an hour at most.

@@ -76,6 +76,7 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
   HardwareRollout out;
   if (auto stop = impl_->latch.reason()) {
     out.error = "refused: emergency stop latched: " + *stop + " (until cpgmatch estop --release or a restart)";
+    out.outcome = HardwareOutcome::kRefused;
     return out;
   }
   if (auto why = impl_->config.envelope_violation(params)) {
@@ -98,11 +99,13 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
     plant.emergency_stop(stop->c_str());
     plant.finish();
     out.error = "emergency stop: " + *stop;
+    out.outcome = HardwareOutcome::kPlantFault;
     return out;
   }
   if (not_ready) {
     plant.finish();
     out.error = "robot not ready: " + *not_ready;
+    out.outcome = HardwareOutcome::kPlantFault;
     return out;
   }
   const double cpu_start = thread_cpu_s();
@@ -122,9 +125,11 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
               s.missing_replies, s.unexpected_frames};
   if (plant.fault_ended_rollout()) {
     out.error = fmt::format("safe stop at t = {:.3f} s: {}", plant.state().time_s, plant.fault().value_or("?"));
+    out.outcome = HardwareOutcome::kPlantFault;
     return out;
   }
   out.ok = true;
+  out.outcome = HardwareOutcome::kRan;
   return out;
 }
 

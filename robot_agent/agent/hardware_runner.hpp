@@ -39,8 +39,14 @@ struct HardwareLoopStats {
   std::uint64_t unexpected_frames = 0;
 };
 
+// Why a hardware rollout did not measure its point, for the optimizer: a refusal (a latched stop) and a
+// fault of the robot are re-issued, never spent; an error (parameters outside the robot's envelope, a
+// rollout that threw) counts as a failed evaluation.
+enum class HardwareOutcome { kRan, kRefused, kPlantFault, kError };
+
 struct HardwareRollout {
   bool ok = false;            // false: refused or stopped by a fault; `error` says why
+  HardwareOutcome outcome = HardwareOutcome::kError;
   std::string error;
   RolloutResult result;       // valid when ok
   HardwareLoopStats loop;

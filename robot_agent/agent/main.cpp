@@ -35,6 +35,7 @@
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/worker/candidate_queue.hpp"
+#include "cpgmatch/worker/spec_book.hpp"
 #include "cpgmatch/worker/worker_link.hpp"
 #include "hardware_runner.hpp"
 
@@ -65,13 +66,23 @@ struct Options {
 // The shipped configs: $CPGMATCH_CONFIG_DIR, else an installed prefix's, else the source tree's.
 std::string config_path(const std::string& relative) { return (runtime::config_dir() / relative).string(); }
 
+msg::RolloutOutcome outcome_of(const HardwareRollout& h) {
+  switch (h.outcome) {
+    case HardwareOutcome::kRan: return dds::to_wire(h.result.outcome);
+    case HardwareOutcome::kRefused: return msg::OUTCOME_REFUSED;
+    case HardwareOutcome::kPlantFault: return msg::OUTCOME_PLANT_FAULT;
+    case HardwareOutcome::kError: return msg::OUTCOME_ERROR;
+  }
+  return msg::OUTCOME_ERROR;
+}
+
 msg::RolloutReport to_report(const HardwareRollout& h) {
   msg::RolloutReport r;
   if (h.ok) {
     dds::fill_report(r, h.result);
-    r.ok(true);
   } else {
     r.ok(false);
+    r.outcome(outcome_of(h));
     r.error(h.error.substr(0, 255));
     r.cost(std::nan(""));
     r.fall_time_s(-1.0);
@@ -154,16 +165,16 @@ int run_once(const Options& o, HardwareRunner& runner, const RolloutSettings& se
 // running a candidate on the robot is this class's own.
 class HardwareWorker {
  public:
-  HardwareWorker(const Options& o, HardwareRunner& runner, RolloutSettings settings, CpgParameters base)
+  HardwareWorker(const Options& o, HardwareRunner& runner)
       : options_(o),
         runner_(runner),
-        settings_(std::move(settings)),
-        base_params_(base),
         queue_(o.id),
         link_(worker::WorkerLinkConfig{o.domain, o.id, "cpgmatch-robot-agent " + o.id, o.localhost_only,
                                        msg::WORKER_HARDWARE, 1, o.heartbeat_s, host_name(),
-                                       [this](const msg::EmergencyStop& s) { on_emergency_stop(s); }},
-              queue_) {
+                                       [this](const msg::EmergencyStop& s) { on_emergency_stop(s); },
+                                       study::kObjectiveVersion},
+              queue_),
+        specs_(link_, study::kObjectiveVersion) {
     rollout_thread_ = std::thread([this] { rollout_loop(); });
   }
 
@@ -189,7 +200,9 @@ class HardwareWorker {
     const StopOutcome outcome = runner_.stop_command(StopRequest{s.target().to_string(), s.reason().to_string(), s.release()});
     if (outcome == StopOutcome::kNotForThisRobot) return;
     const std::optional<std::string> latched = runner_.latched_stop();
-    link_.set_accepting(!latched);
+    // Announced at once, with the reason: the optimizer stops assigning to this robot, re-issues the rollout
+    // the stop interrupted once it is released, and says in the study's state why it waits.
+    link_.set_accepting(!latched, latched ? fmt::format("emergency-stopped ({})", *latched) : std::string());
     if (latched) {
       spdlog::warn("EMERGENCY STOP {:016x} from {} ({}): {}; motors in the safe state, refusing candidates until "
                    "`cpgmatch estop --release` or a restart",
@@ -211,9 +224,18 @@ class HardwareWorker {
     HardwareRollout h;
     if (auto why = dds::check_parameters(c.parameters())) {
       h.error = "bad parameters: " + *why;
+    } else if (const std::optional<std::string> stop = runner_.latched_stop()) {
+      // Latched: refused before anything else is looked at (the optimizer re-issues it after the release).
+      h.error = "refused: emergency stop latched: " + *stop + " (until cpgmatch estop --release or a restart)";
+      h.outcome = HardwareOutcome::kRefused;
+    } else if (const worker::SpecBook::Lookup spec = specs_.find(c.spec_key()); !spec.spec) {
+      h.error = "refused: " + spec.refusal;
+      h.outcome = HardwareOutcome::kRefused;
     } else {
-      CpgParameters params = base_params_;
-      RolloutSettings settings = settings_;
+      // The study's spec: its controller, feedback, contact sensing, cost and base parameters (the robot's
+      // own control rate and limits stay the robot's, HardwareRunner).
+      CpgParameters params = spec.spec->base_parameters();
+      RolloutSettings settings = spec.spec->rollout_settings();
       try {
         for (const auto& [name, value] : dds::from_wire(c.parameters())) set_parameter(params, name, value, "candidate");
         settings.entrain_s = c.rollout().entrain_s();
@@ -249,11 +271,10 @@ class HardwareWorker {
 
   Options options_;
   HardwareRunner& runner_;
-  RolloutSettings settings_;
-  CpgParameters base_params_;
   bool warned_ = false;
   worker::CandidateQueue queue_;
   worker::WorkerLink link_;  // after the queue: its readers feed the queue from the moment it exists
+  worker::SpecBook specs_;
   std::thread rollout_thread_;
 };
 
@@ -271,7 +292,8 @@ int main(int argc, char** argv) {
   app.add_option("--id", o.id,
                  "worker id, unique on the domain (default: HOST-robot; with --keystore the certificate's CN, and an id "
                  "must be CN or CN/SUFFIX)");
-  app.add_option("--settings", o.settings_path, "rollout settings YAML (default: configs/rollout.yaml)");
+  app.add_option("--settings", o.settings_path,
+                 "--run-once: rollout settings YAML (default: configs/rollout.yaml; a study brings its own)");
   app.add_flag("--localhost-only", o.localhost_only, "DDS over UDP on 127.0.0.1 only");
   app.add_flag("--no-realtime", o.no_realtime, "do not ask for SCHED_FIFO and locked memory");
   app.add_flag("--lockstep", o.lockstep,
@@ -328,7 +350,7 @@ int main(int argc, char** argv) {
     ro.robot_id = o.id;
     HardwareRunner runner(ro);
     if (o.run_once) return run_once(o, runner, settings, params);
-    HardwareWorker worker(o, runner, settings, params);
+    HardwareWorker worker(o, runner);  // each study's spec brings its settings and base parameters
     worker.run();
     return kExitOk;
   });

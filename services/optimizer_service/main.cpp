@@ -104,13 +104,15 @@ int default_model_threads() {
 // Publishes what the coordinator decides.
 class DdsOutbox final : public Outbox {
  public:
-  explicit DdsOutbox(dds::Participant& p) : candidates_(p), trials_(p), states_(p), replies_(p) {}
+  explicit DdsOutbox(dds::Participant& p) : candidates_(p), trials_(p), states_(p), replies_(p), specs_(p) {}
   void send_candidate(const msg::Candidate& c) override { check(candidates_.write(c), "candidate"); }
   void retire_candidate(const msg::Candidate& c) override { candidates_.unregister(c); }
   void publish_trial(const msg::TrialRecord& t) override { check(trials_.write(t), "trial record"); }
   void retire_trial(const msg::TrialRecord& t) override { trials_.unregister(t); }
   void publish_state(const msg::StudyState& s) override { check(states_.write(s), "study state"); }
   void reply(const msg::CommandReply& r) override { check(replies_.write(r), "command reply"); }
+  void publish_spec(const msg::StudySpecSample& s) override { check(specs_.write(s), "study spec"); }
+  void retire_spec(const msg::StudySpecSample& s) override { specs_.unregister(s); }
 
   // Gives what was already published, and so acknowledged by a committed transaction, up to `timeout` to
   // reach its readers. Called before the service stops on a store error: a study accepted a few
@@ -136,6 +138,7 @@ class DdsOutbox final : public Outbox {
   dds::Writer<msg::TrialRecord> trials_;
   dds::Writer<msg::StudyState> states_;
   dds::Writer<msg::CommandReply> replies_;
+  dds::Writer<msg::StudySpecSample> specs_;
 };
 
 int run(int domain, const std::string& store_path, bool full_durability, double worker_timeout_s, bool localhost_only,
@@ -156,7 +159,6 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   study::StudyStore& store = *opened;
   service::CoordinatorOptions options;
   options.worker_timeout_s = worker_timeout_s;
-  options.base_parameters = load_parameters(sim::default_params_path());
   options.model_threads = model_threads;
   options.acquisition_threads = acquisition_threads;
   service::EventQueue<Event> queue;

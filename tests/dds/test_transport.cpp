@@ -121,8 +121,21 @@ TEST(Convert, RejectsBadParametersAndReports) {
   EXPECT_FALSE(check_report(r).has_value());
   r.cost(std::nan(""));
   EXPECT_TRUE(check_report(r).has_value());
-  r.ok(false);  // a failed rollout's cost is not looked at
+  r.ok(false);
+  EXPECT_TRUE(check_report(r).has_value());  // ok = false contradicts the (default) outcome completed
+  for (const auto outcome : {msg::OUTCOME_REFUSED, msg::OUTCOME_PLANT_FAULT, msg::OUTCOME_DIVERGED, msg::OUTCOME_ERROR}) {
+    r.outcome(outcome);
+    EXPECT_FALSE(check_report(r).has_value()) << to_string(outcome);  // a failed rollout's cost is not looked at
+  }
+  r.ok(true);
+  EXPECT_TRUE(check_report(r).has_value());  // a rollout that ran cannot have been refused
+  r.outcome(msg::OUTCOME_FELL);
+  r.cost(3.0);
+  EXPECT_TRUE(check_report(r).has_value());  // outcome fell, but fell = false
+  r.fell(true);
   EXPECT_FALSE(check_report(r).has_value());
+  r.outcome(static_cast<msg::RolloutOutcome>(17));
+  EXPECT_TRUE(check_report(r).has_value());  // not an outcome at all
 }
 
 TEST(Convert, AWorkerIdBelongsToItsCertificatesCommonNameOrItsInstances) {

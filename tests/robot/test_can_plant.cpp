@@ -296,6 +296,30 @@ TEST(CanPlant, RunsACommonRolloutAndEndsInTheSafeState) {
   plant.finish();
 }
 
+// A watchdog trip mid-rollout is the robot's fault, not the gait's: the rollout ends as a plant fault with
+// the watchdog's reason, never as a fall the optimizer would learn from.
+TEST(CanPlant, AWatchdogTripMidRolloutEndsItAsAPlantFaultNotAFall) {
+  const RobotConfig config = tolerant_morti();
+  ScriptedRobot robot(config, "virtual:plant-trip-rollout");
+  auto bus = can::open_can_bus("virtual:plant-trip-rollout");
+  CanPlant plant(config, *bus, kNoStallWatch);
+  RolloutSettings settings;
+  settings.entrain_s = 1.0;
+  settings.eval_s = 1.0;
+  ASSERT_EQ(plant.prepare(settings.entrain_s + settings.eval_s), std::nullopt);
+  std::thread silence([&robot] {
+    std::this_thread::sleep_for(300ms);
+    robot.go_silent();  // every motor and sensor stops answering while the rollout runs
+  });
+  const RolloutResult result = run_rollout(plant, CpgParameters{}, settings, 1);
+  silence.join();
+  EXPECT_TRUE(plant.fault_ended_rollout());
+  EXPECT_EQ(result.outcome, RolloutOutcome::kPlantFault) << to_string(result.outcome);
+  EXPECT_NE(result.outcome_message.find(plant.fault().value_or("?")), std::string::npos) << result.outcome_message;
+  EXPECT_LT(result.sim_time_s, 1.9);  // it ended early, at the trip
+  plant.finish();
+}
+
 TEST(CanPlant, TheWatchThreadDoesNotCallTheRolloutsEndAStall) {
   const RobotConfig config = tolerant_morti();
   ScriptedRobot robot(config, "virtual:plant-end");

@@ -577,6 +577,7 @@ std::vector<std::map<std::string, double>> CoordinatorTest::one_slot_study(int a
     msg::RolloutReport r = report_for(c, 1.0 + std::sin(0.7 * c.trial_id()) + 0.1);
     if (fall_every_ > 0 && c.trial_id() % fall_every_ == 0) {
       r.fell(true);
+      r.outcome(msg::OUTCOME_FELL);
       r.cost(15.0);
     }
     coordinator_->handle_report(r, now_ += 0.01);
@@ -1054,6 +1055,161 @@ TEST_F(CoordinatorTest, ABurstOfReportsCommitsAtomicallyAndIsAcknowledgedOnlyAft
 std::map<int, std::map<std::string, double>> two_worker_study(CoordinatorTest& t, int lockstep, bool newest_first,
                                                               int restart_at_step) {
   return t.run_two_worker_study(lockstep, newest_first, restart_at_step);
+}
+
+}  // namespace
+}  // namespace cpgmatch::service
+
+namespace cpgmatch::service {
+namespace {
+
+// A report of `outcome` for a candidate: refused, plant_fault or diverged did not measure the point.
+msg::RolloutReport unspent_report(const msg::Candidate& c, msg::RolloutOutcome outcome, const std::string& why) {
+  msg::RolloutReport r;
+  r.study_id(c.study_id());
+  r.trial_id(c.trial_id());
+  r.attempt(c.attempt());
+  r.worker_id(c.worker_id());
+  r.ok(false);
+  r.outcome(outcome);
+  r.error(why);
+  r.cost(std::nan(""));
+  return r;
+}
+
+TEST_F(CoordinatorTest, ARefusedCandidateIsReissuedNeverSpentAndTheRefusingWorkerIsLeftAloneForAWhile) {
+  const int id = submit(2, 2);
+  worker("a", 1);
+  coordinator_->tick(now_);
+  ASSERT_EQ(out_.candidates.size(), 1u);
+  const msg::Candidate first = out_.candidates.back();
+  coordinator_->handle_report(unspent_report(first, msg::OUTCOME_REFUSED, "refused: emergency stop latched: test"), now_);
+  // Within the backoff the refusing worker gets nothing of this study; a second worker takes the trial.
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(out_.candidates.size(), 1u);
+  worker("b", 1);
+  coordinator_->tick(now_ += 0.1);
+  ASSERT_EQ(out_.candidates.size(), 2u);
+  const msg::Candidate again = out_.candidates.back();
+  EXPECT_EQ(again.worker_id().to_string(), "b");
+  EXPECT_EQ(again.trial_id(), first.trial_id());
+  EXPECT_EQ(again.attempt(), first.attempt() + 1);
+  EXPECT_EQ(dds::from_wire(again.parameters()), dds::from_wire(first.parameters()));
+  // Nothing counted, nothing failed; the refusal is on record.
+  EXPECT_EQ(out_.states.empty() ? 0u : out_.states.back().completed(), 0u);
+  const auto attempts = store_->unspent_attempts(id);
+  ASSERT_EQ(attempts.size(), 1u);
+  EXPECT_EQ(attempts[0].outcome, "refused");
+  // After the backoff "a" serves the study again; the study ends with both trials counted, none failed.
+  now_ += 3.0;
+  worker("a", 1);  // heartbeats meanwhile
+  worker("b", 1);
+  coordinator_->tick(now_);
+  answered_ = 1;  // the refused candidate was answered above
+  for (int round = 0; round < 10 && !coordinator_->idle(); ++round) {
+    answer_all();
+    coordinator_->tick(now_ += 0.2);
+  }
+  EXPECT_EQ(store_->load(id)->state, "done");
+  EXPECT_EQ(out_.states.back().completed(), 2u);
+  EXPECT_EQ(out_.states.back().failed(), 0u);
+  EXPECT_EQ(sent_to("a").size(), 2u) << "worker a never served the study again after its backoff";
+}
+
+TEST_F(CoordinatorTest, PlantFaultsAreRetriedThenSpentAsAFailureTheModelNeverSees) {
+  const int id = submit(3, 3);
+  worker("robot", 1);
+  coordinator_->tick(now_);
+  const int trial = static_cast<int>(out_.candidates.back().trial_id());
+  // Faults 1 and 2: re-issued each time, nothing counted.
+  for (int fault = 1; fault <= 2; ++fault) {
+    const msg::Candidate c = out_.candidates.back();
+    ASSERT_EQ(static_cast<int>(c.trial_id()), trial);
+    ASSERT_EQ(static_cast<int>(c.attempt()), fault - 1);
+    coordinator_->handle_report(unspent_report(c, fault == 1 ? msg::OUTCOME_PLANT_FAULT : msg::OUTCOME_DIVERGED,
+                                               "watchdog"), now_);
+    coordinator_->tick(now_ += 0.1);
+    EXPECT_EQ(static_cast<int>(out_.candidates.back().attempt()), fault) << "fault " << fault << " not re-issued";
+  }
+  EXPECT_TRUE(out_.trials.empty());
+  // A stale report of an older attempt changes nothing.
+  msg::Candidate stale = out_.candidates.back();
+  stale.attempt(0);
+  coordinator_->handle_report(unspent_report(stale, msg::OUTCOME_PLANT_FAULT, "late"), now_);
+  EXPECT_EQ(store_->unspent_attempts(id).size(), 2u);
+  // The third fault reaches the bound (3): spent as a failed trial, its report the fault.
+  coordinator_->handle_report(unspent_report(out_.candidates.back(), msg::OUTCOME_PLANT_FAULT, "watchdog"), now_);
+  ASSERT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(out_.trials.back().report().outcome(), msg::OUTCOME_PLANT_FAULT);
+  answered_ = out_.candidates.size();
+  for (int round = 0; round < 10 && !coordinator_->idle(); ++round) {
+    coordinator_->tick(now_ += 0.2);
+    answer_all();
+  }
+  const auto done = store_->load(id);
+  EXPECT_EQ(done->state, "done");
+  EXPECT_EQ(out_.states.back().failed(), 1u);
+  // The model was told the faulted trial as excluded: after a restart it is replayed the same way.
+  open();
+  coordinator_->resume_from_store(now_);
+  EXPECT_TRUE(warnings_.empty() || warnings_.back().find("cannot be reopened") == std::string::npos);
+}
+
+TEST_F(CoordinatorTest, AStudyWaitingForAnEmergencyStoppedRobotSaysSoAndIssuesItNothing) {
+  extra_study_yaml_ = "explore_on: hardware\n";
+  submit(2, 2);
+  msg::WorkerAnnouncement w;
+  w.worker_id("morti");
+  w.worker_key(dds::worker_key("morti"));
+  w.slots(1);
+  w.kind(msg::WORKER_HARDWARE);
+  w.accepting(false);
+  w.status("emergency-stopped (operator pressed stop)");
+  coordinator_->handle_worker(w, now_);
+  coordinator_->tick(now_ += 0.2);
+  EXPECT_TRUE(out_.candidates.empty());
+  ASSERT_FALSE(out_.states.empty());
+  EXPECT_EQ(out_.states.back().message().to_string(), "waiting: robot morti emergency-stopped (operator pressed stop)");
+  // Released: it accepts again, the study goes on and the message clears.
+  w.accepting(true);
+  w.status("");
+  coordinator_->handle_worker(w, now_);
+  coordinator_->tick(now_ += 0.2);
+  EXPECT_EQ(out_.candidates.size(), 1u);
+  coordinator_->tick(now_ += 0.2);
+  EXPECT_EQ(out_.states.back().message().to_string(), "");
+}
+
+TEST_F(CoordinatorTest, CandidatesCarryTheStudysSpecAndItIsPublishedBeforeThem) {
+  struct SpecRecorder : RecordingOutbox {
+    std::vector<msg::StudySpecSample> specs;
+    void publish_spec(const msg::StudySpecSample& s) override { specs.push_back(s); }
+  };
+  SpecRecorder out;
+  CoordinatorOptions options;
+  options.wall_clock_s = [] { return 1.7e9; };
+  Coordinator c(*store_, out, options, [](const std::string&) {}, [](const std::string&) {});
+  msg::StudyCommand cmd;
+  cmd.correlation_id(1);
+  cmd.client_id("test");
+  cmd.kind(msg::COMMAND_SUBMIT);
+  cmd.study_yaml("name: s\nbudget: 2\ninitial_points: 2\nmodel: {knee_spring: {stiffness_nm_per_rad: 20}}\n");
+  c.handle_command(cmd, now_);
+  ASSERT_TRUE(out.replies.back().ok()) << out.replies.back().message().to_string();
+  ASSERT_EQ(out.specs.size(), 1u);
+  const auto stored = store_->load(static_cast<int>(out.replies.back().study_id()));
+  EXPECT_EQ(out.specs[0].sha256().to_string(), stored->spec.sha256);
+  EXPECT_EQ(out.specs[0].spec_json().to_string(), stored->spec.json);
+  EXPECT_EQ(stored->spec.origin, "submitted");
+  msg::WorkerAnnouncement w;
+  w.worker_id("a");
+  w.worker_key(dds::worker_key("a"));
+  w.slots(2);
+  w.accepting(true);
+  c.handle_worker(w, now_);
+  c.tick(now_);
+  ASSERT_EQ(out.candidates.size(), 2u);
+  for (const auto& cand : out.candidates) EXPECT_EQ(cand.spec_key(), out.specs[0].spec_key());
 }
 
 }  // namespace

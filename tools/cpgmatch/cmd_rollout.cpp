@@ -34,6 +34,9 @@ void print_summary(const RolloutResult& r, const sim::SimRolloutJob& job) {
   fmt::print("rollout on {} terrain, seed {}, {:.1f} s simulated in {:.3f} s wall\n", job.terrain.describe(),
              job.seed, r.sim_time_s, r.wall_time_s);
   if (r.fell) fmt::print("  FELL at t = {:.2f} s -> fall cost\n", r.fall_time_s);
+  if (r.outcome == RolloutOutcome::kDiverged || r.outcome == RolloutOutcome::kPlantFault) {
+    fmt::print("  {}: {} (not a result: a study re-runs such a trial)\n", to_string(r.outcome), r.outcome_message);
+  }
   fmt::print("  cost               {:8.4f}\n", r.cost);
   fmt::print("    J_feedback       {:8.4f}   (LTD {:.1f}%  ETD {:.1f}%  ETO {:.1f}%  LTO {:.1f}%)\n", b.terms.feedback,
              100 * b.feedback_fraction.late_touchdown, 100 * b.feedback_fraction.early_touchdown,

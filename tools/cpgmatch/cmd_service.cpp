@@ -17,6 +17,7 @@
 
 #include "cpgmatch/study/study_config.hpp"
 #include "commands.hpp"
+#include "cpgmatch/study/study_spec.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "service_flags.hpp"
 #include "study_client.hpp"
@@ -134,7 +135,7 @@ void add_study_service_commands(CLI::App* study) {
       const std::string text = read_file(o->config);
       // Checked here first, with the same rules as the service: a bad file exits 2 at once, naming the
       // field and line, without waiting for an optimizer (which would refuse it the same way).
-      (void)study::load_study_config_text(text, o->config);
+      (void)study::StudySpec::resolve(text, o->config, study::SpecDefaults::shipped());
       client::StudyClient c = connect(o->service);
       const client::CommandResult r = c.submit(text, o->config, o->service.timeout_s);
       if (!r.ok) throw InputError(r.message);  // e.g. "study.yaml:4: budget: must be >= 1"

@@ -16,6 +16,7 @@ void add_study_command(CLI::App& app) {
   CLI::App* study = app.add_subcommand("study", "run and manage optimisation studies");
   study->require_subcommand(1);
   add_study_service_commands(study);
+  add_spec_commands(app, study);
   struct Options {
     LocalStudyFlags common;
     std::string store;

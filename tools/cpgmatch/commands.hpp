@@ -28,6 +28,8 @@ void add_reproduce_command(CLI::App& app);
 void add_sim2real_command(CLI::App& app);
 // An emergency stop (latched) or its release for robot agents, over DDS.
 void add_estop_command(CLI::App& app);
+// `study show` (under `study`) and `rerun`: a stored study's spec, and a stored trial re-run from it.
+void add_spec_commands(CLI::App& app, CLI::App* study);
 
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,

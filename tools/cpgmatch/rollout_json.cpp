@@ -20,6 +20,8 @@ nlohmann::json to_json(const RolloutResult& r) {
         {"periodicity", b.terms.periodicity}}},
       {"normalized_torque", b.normalized_torque},
       {"summed_torque_nm", b.summed_torque_nm},
+      {"outcome", to_string(r.outcome)},
+      {"outcome_message", r.outcome_message},
       {"fell", r.fell},
       {"fall_time_s", r.fell ? nlohmann::json(r.fall_time_s) : nlohmann::json(nullptr)},
       {"distance_m", b.distance_m},

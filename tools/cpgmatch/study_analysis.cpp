@@ -11,6 +11,7 @@
 #include "cpgmatch/analysis/sim2real.hpp"
 #include "cpgmatch/analysis/stored_study_trials.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/study/spec_rollout.hpp"
 
 namespace cpgmatch::cli {
 
@@ -18,26 +19,29 @@ namespace fs = std::filesystem;
 
 namespace {
 
-sim::SimRolloutJob study_job(const study::StudyConfig& cfg, const std::map<std::string, double>& params,
+sim::SimRolloutJob study_job(const study::StudySpec& spec, const std::map<std::string, double>& params,
                              std::uint64_t seed) {
-  sim::SimRolloutJob job;
-  job.model = sim::load_morti_model(sim::default_model_path());
-  job.settings = load_rollout_settings(sim::default_rollout_settings_path());
-  job.params = load_parameters(sim::default_params_path());
-  job.terrain = sim::TerrainSpec::parse(cfg.terrain);
-  job.seed = seed;
-  job.settings.entrain_s = cfg.entrain_s;
-  job.settings.eval_s = cfg.eval_s;
-  for (const auto& [name, value] : params) set_parameter(job.params, name, value, "analysis");
-  return job;
+  const study::StudyConfig& cfg = spec.config();
+  return study::sim_job_for(spec, params, cfg.terrain, seed, cfg.entrain_s, cfg.eval_s);
 }
 
 }  // namespace
 
-analysis::RolloutEvaluator sim_evaluator(const study::StudyConfig& cfg) {
-  return [cfg](const std::map<std::string, double>& params, std::uint64_t seed) {
+std::shared_ptr<const study::StudySpec> stored_spec(const study::StoredStudy& stored) {
+  if (stored.spec.json.empty()) {
+    // Not yet opened by an optimizer that knows specs: this release's defaults, as its migration would do.
+    return std::make_shared<const study::StudySpec>(
+        study::StudySpec::resolve(stored.config_yaml, stored.source_name, study::SpecDefaults::shipped()));
+  }
+  return std::make_shared<const study::StudySpec>(
+      study::StudySpec::from_json_text(stored.spec.json, fmt::format("study {} spec", stored.study_id)));
+}
+
+// Jitter rollouts run the study's own spec: a study of a stiffer knee is re-evaluated on that knee.
+analysis::RolloutEvaluator sim_evaluator(std::shared_ptr<const study::StudySpec> spec) {
+  return [spec](const std::map<std::string, double>& params, std::uint64_t seed) {
     try {
-      const RolloutResult r = sim::run_sim_rollout(study_job(cfg, params, seed));
+      const RolloutResult r = sim::run_sim_rollout(study_job(*spec, params, seed));
       return analysis::RolloutOutcome{true, r.fell, r.cost};
     } catch (const std::exception& e) {
       fmt::print(stderr, "jitter rollout failed: {}\n", e.what());
@@ -48,7 +52,8 @@ analysis::RolloutEvaluator sim_evaluator(const study::StudyConfig& cfg) {
 
 StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_draws, bool quiet) {
   StudyAnalysis a;
-  a.config = study::load_study_config_text(stored.config_yaml, stored.source_name);
+  a.spec = stored_spec(stored);
+  a.config = a.spec->config();
   const analysis::StudyTrials all = analysis::trials_from_stored_study(stored);
   a.trials = analysis::exploration_trials(all);  // a mixed study's hardware sets are reported apart
   a.report = analysis::science_report(a.trials);
@@ -56,7 +61,7 @@ StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_
     analysis::JitterOptions o;
     o.draws = jitter_draws;
     o.rollout_seed = a.trials.seed;
-    const auto evaluate = sim_evaluator(a.config);
+    const auto evaluate = sim_evaluator(a.spec);
     int done = 0;
     const bool tty = isatty(STDERR_FILENO);
     if (!quiet && !tty) fmt::print(stderr, "jitter test of the recommended parameters: {} rollouts\n", jitter_draws);
@@ -100,7 +105,7 @@ bool write_study_figures(const fs::path& dir, const StudyAnalysis& a, bool trace
   if (!trace_best || a.report.best_rollout <= 0) return ok;
   try {
     const fs::path trace = fs::absolute(dir) / "best_trace.csv";
-    sim::run_sim_rollout(study_job(a.config, analysis::answer_params(a.report), a.trials.seed), make_csv_trace(trace.string()));
+    sim::run_sim_rollout(study_job(*a.spec, analysis::answer_params(a.report), a.trials.seed), make_csv_trace(trace.string()));
     analysis::plot_trace(trace, dir);
   } catch (const std::exception& e) {
     fmt::print(stderr, "fig4: {}\n", e.what());

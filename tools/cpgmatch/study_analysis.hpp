@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -11,15 +12,20 @@
 #include "cpgmatch/analysis/science_report.hpp"
 #include "cpgmatch/analysis/trial.hpp"
 #include "cpgmatch/study/study_config.hpp"
+#include "cpgmatch/study/study_spec.hpp"
 #include "cpgmatch/study/study_store.hpp"
 
 namespace cpgmatch::cli {
 
-// Runs rollouts in this process (the `sim` library) under the study's conditions: its terrain, its
-// entrainment and evaluation times, the shipped model and rollout settings, as the sim worker does.
-analysis::RolloutEvaluator sim_evaluator(const study::StudyConfig& cfg);
+// Runs rollouts in this process (the `sim` library) under the study's conditions: its spec's model,
+// settings and base parameters, its terrain and timing, as the sim worker does.
+analysis::RolloutEvaluator sim_evaluator(std::shared_ptr<const study::StudySpec> spec);
+// A stored study's spec: the stored one, or (a store from before specs not yet opened by an optimizer)
+// the one this release's migration gives it.
+std::shared_ptr<const study::StudySpec> stored_spec(const study::StoredStudy& stored);
 
 struct StudyAnalysis {
+  std::shared_ptr<const study::StudySpec> spec;
   study::StudyConfig config;
   analysis::StudyTrials trials;
   analysis::ScienceReport report;

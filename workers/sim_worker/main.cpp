@@ -42,6 +42,7 @@ struct Options {
   double fake_rollout_ms = -1.0;
   double heartbeat_s = 0.5;
   bool localhost_only = false;
+  std::uint32_t objective_version = study::kObjectiveVersion;
 };
 
 std::string host_name() {
@@ -58,9 +59,12 @@ class SimWorker {
       : options_(o),
         queue_(o.id),
         link_(WorkerLinkConfig{o.domain, o.id, "cpgmatch-sim-worker " + o.id, o.localhost_only, msg::WORKER_SIM,
-                               static_cast<std::uint32_t>(o.slots), o.heartbeat_s, host_name(), {}},
-              queue_) {
+                               static_cast<std::uint32_t>(o.slots), o.heartbeat_s, host_name(), {},
+                               o.objective_version},
+              queue_),
+        specs_(link_, o.objective_version) {
     slot_options_.worker_id = o.id;
+    slot_options_.find_spec = [this](std::uint64_t key) { return specs_.find(key); };
     slot_options_.fake_rollout_s = o.fake_rollout_ms >= 0.0 ? o.fake_rollout_ms / 1000.0 : -1.0;
     for (int i = 0; i < o.slots; ++i) slots_.emplace_back([this] { slot_loop(); });
   }
@@ -97,6 +101,7 @@ class SimWorker {
   SlotOptions slot_options_;
   CandidateQueue queue_;
   WorkerLink link_;  // after the queue: its readers feed the queue from the moment it exists
+  SpecBook specs_;
   std::vector<std::thread> slots_;
 };
 
@@ -131,6 +136,9 @@ int main(int argc, char** argv) {
   app.add_option("--fake-rollout-ms", o.fake_rollout_ms,
                  "benchmark mode: replace each rollout by a fixed delay (ms) and a synthetic cost");
   app.add_option("--heartbeat", o.heartbeat_s, "seconds between announcements")->capture_default_str();
+  app.add_option("--objective-version", o.objective_version,
+                 "compatibility tests only: claim to compute this objective version (a release's is fixed)")
+      ->group("");
   app.add_flag("--localhost-only", o.localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   app.add_option("--log-level", log_level, "log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))

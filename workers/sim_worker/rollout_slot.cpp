@@ -12,13 +12,16 @@
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/study/spec_rollout.hpp"
 
 namespace cpgmatch::worker {
 
 namespace {
 
-msg::RolloutReport failed(const msg::Candidate& c, const SlotOptions& o, const std::string& why) {
+msg::RolloutReport failed(const msg::Candidate& c, const SlotOptions& o, const std::string& why,
+                          msg::RolloutOutcome outcome = msg::OUTCOME_ERROR) {
   msg::RolloutReport r;
+  r.outcome(outcome);
   r.store_id(c.store_id());
   r.study_id(c.study_id());
   r.trial_id(c.trial_id());
@@ -32,9 +35,17 @@ msg::RolloutReport failed(const msg::Candidate& c, const SlotOptions& o, const s
   return r;
 }
 
+// A rollout part longer than this is refused (a study file allows at most this much, study_config.cpp): a
+// candidate asking for 1e308 s would otherwise hold a slot until its lease runs out.
+constexpr double kMaxRolloutPartS = 3600.0;
+
 std::optional<std::string> check_spec(const msg::RolloutSpec& s) {
-  if (!std::isfinite(s.entrain_s()) || s.entrain_s() < 0.0) return fmt::format("rollout.entrain_s = {}", s.entrain_s());
-  if (!std::isfinite(s.eval_s()) || s.eval_s() <= 0.0) return fmt::format("rollout.eval_s = {}", s.eval_s());
+  if (!std::isfinite(s.entrain_s()) || s.entrain_s() < 0.0 || s.entrain_s() > kMaxRolloutPartS) {
+    return fmt::format("rollout.entrain_s = {} (must be in [0, {}] s)", s.entrain_s(), kMaxRolloutPartS);
+  }
+  if (!std::isfinite(s.eval_s()) || s.eval_s() <= 0.0 || s.eval_s() > kMaxRolloutPartS) {
+    return fmt::format("rollout.eval_s = {} (must be in (0, {}] s)", s.eval_s(), kMaxRolloutPartS);
+  }
   try {
     (void)sim::TerrainSpec::parse(s.terrain().to_string());
   } catch (const InputError& e) {
@@ -45,42 +56,44 @@ std::optional<std::string> check_spec(const msg::RolloutSpec& s) {
 
 }  // namespace
 
-nlohmann::json rollout_request(const msg::Candidate& c) {
+nlohmann::json rollout_request(const msg::Candidate& c, const study::StudySpec& spec) {
   nlohmann::json params = nlohmann::json::object();
   for (const auto& [name, value] : dds::from_wire(c.parameters())) params[name] = value;
   return {{"params", params},
           {"entrain_s", c.rollout().entrain_s()},
           {"eval_s", c.rollout().eval_s()},
           {"terrain", c.rollout().terrain().to_string()},
-          {"seed", c.rollout().seed()}};
+          {"seed", c.rollout().seed()},
+          {"spec", spec.canonical_json()}};
 }
 
 nlohmann::json run_rollout_request(const nlohmann::json& request) {
   sim::SimRolloutJob job;
   try {
-    job.model = sim::load_morti_model(sim::default_model_path());
-    job.settings = load_rollout_settings(sim::default_rollout_settings_path());
-    job.params = load_parameters(sim::default_params_path());
-    job.terrain = sim::TerrainSpec::parse(request.at("terrain").get<std::string>());
-    job.seed = request.at("seed").get<std::uint64_t>();
-    job.settings.entrain_s = request.at("entrain_s").get<double>();
-    job.settings.eval_s = request.at("eval_s").get<double>();
-    for (const auto& [name, value] : request.at("params").items()) {
-      set_parameter(job.params, name, value.get<double>(), "request");
-    }
+    const study::StudySpec spec = study::StudySpec::from_json_text(request.at("spec").get<std::string>(), "rollout request");
+    std::map<std::string, double> params;
+    for (const auto& [name, value] : request.at("params").items()) params[name] = value.get<double>();
+    job = study::sim_job_for(spec, params, request.at("terrain").get<std::string>(), request.at("seed").get<std::uint64_t>(),
+                             request.at("entrain_s").get<double>(), request.at("eval_s").get<double>());
   } catch (const nlohmann::json::exception& e) {
     throw InputError(fmt::format("rollout request: {}", e.what()));
   }
   const RolloutResult result = sim::run_sim_rollout(job);
   msg::RolloutReport r;
-  dds::fill_report(r, result);
-  r.ok(true);
+  dds::fill_report(r, result);  // ok, outcome and (for a divergence) the error
   return dds::to_json(r);
 }
 
 msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions& o) {
   if (auto why = dds::check_parameters(c.parameters())) return failed(c, o, "bad parameters: " + *why);
   if (auto why = check_spec(c.rollout())) return failed(c, o, "bad rollout spec: " + *why);
+  // The study's spec decides what this rollout computes: one this worker cannot run is refused, never
+  // computed with something else (the optimizer re-issues it to a worker that can).
+  SpecBook::Lookup spec;
+  if (o.fake_rollout_s < 0.0) {
+    spec = o.find_spec(c.spec_key());
+    if (!spec.spec) return failed(c, o, "refused: " + spec.refusal, msg::OUTCOME_REFUSED);
+  }
   msg::RolloutReport r;
   const auto start = std::chrono::steady_clock::now();
   if (o.fake_rollout_s >= 0.0) {
@@ -94,13 +107,14 @@ msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions&
       cost += u * u;
     }
     r.ok(true);
+    r.outcome(msg::OUTCOME_COMPLETED);
     r.cost(cost);
     r.fell(false);
     r.fall_time_s(-1.0);
   } else {
     const std::string command = fmt::format("{} --run-one", shell_quote(self_executable()));
     const double timeout = c.lease_s() > 0.0 ? c.lease_s() : 600.0;
-    const EvaluationOutcome outcome = run_command_objective(command, rollout_request(c).dump(), timeout);
+    const EvaluationOutcome outcome = run_command_objective(command, rollout_request(c, *spec.spec).dump(), timeout);
     if (!outcome.ok) return failed(c, o, outcome.message);
     if (outcome.stdout_lines.size() < 2) return failed(c, o, "rollout process printed no report");
     try {
@@ -115,7 +129,7 @@ msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions&
   r.attempt(c.attempt());
   r.worker_id(o.worker_id);
   r.worker_kind(msg::WORKER_SIM);
-  r.error("");
+  if (r.ok()) r.error("");
   r.wall_time_s(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   return r;
 }

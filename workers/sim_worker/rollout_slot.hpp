@@ -3,10 +3,12 @@
 // candidate or a crashing rollout: those become reports with ok = false and the reason.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/worker/spec_book.hpp"
 #include "cpgmatch_msgs.h"
 
 namespace cpgmatch::worker {
@@ -14,10 +16,13 @@ namespace cpgmatch::worker {
 struct SlotOptions {
   std::string worker_id;
   double fake_rollout_s = -1.0;  // >= 0: no simulation, sleep this long and report a synthetic cost
+  // The spec a candidate names, or why to refuse it (SpecBook::find).
+  std::function<SpecBook::Lookup(std::uint64_t spec_key)> find_spec;
 };
 
-// The rollout request a slot hands to its child process (`cpgmatch-sim-worker --run-one`).
-nlohmann::json rollout_request(const msg::Candidate& c);
+// The rollout request a slot hands to its child process (`cpgmatch-sim-worker --run-one`): the candidate's
+// parameters, terrain, seed and timing, and the whole spec it runs (the child reads no local config).
+nlohmann::json rollout_request(const msg::Candidate& c, const study::StudySpec& spec);
 
 // Runs one rollout request in this process and returns the report fields as JSON (dds::to_json form).
 // Throws InputError for a malformed request.

@@ -6,6 +6,9 @@
 // All values are SI: radians, metres, seconds, newtons, newton-metres.
 #pragma once
 
+#include <optional>
+#include <string>
+
 #include "cpgmatch/legs.hpp"
 
 namespace cpgmatch {
@@ -45,6 +48,10 @@ class Plant {
   virtual PlantState state() const = 0;
   // The plant's own integration period (seconds); the rollout advances it in steps of this size.
   virtual double time_step_s() const = 0;
+  // Why the body cannot go on (a motor watchdog, the bus, an emergency stop), or nothing while it is
+  // healthy. A faulted plant's state says nothing about the gait: the rollout ends as a plant fault, not a
+  // fall. A simulation has no such fault (a blow-up is seen as a non-finite state instead).
+  virtual std::optional<std::string> fault() const { return std::nullopt; }
 };
 
 }  // namespace cpgmatch

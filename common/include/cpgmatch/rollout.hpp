@@ -14,6 +14,8 @@
 
 namespace cpgmatch {
 
+class YamlReader;
+
 struct RolloutSettings {
   double entrain_s = 10.0;
   double eval_s = 10.0;
@@ -22,7 +24,14 @@ struct RolloutSettings {
   CostConfig cost;
 };
 
+// How a rollout ended. Only kCompleted and kFell measure the gait; a plant fault or a diverged simulation
+// says nothing about it, and the optimizer must not learn from it (the trial is run again instead).
+enum class RolloutOutcome { kCompleted, kFell, kPlantFault, kDiverged };
+const char* to_string(RolloutOutcome outcome);  // completed | fell | plant_fault | diverged
+
 struct RolloutResult {
+  RolloutOutcome outcome = RolloutOutcome::kCompleted;
+  std::string outcome_message;  // plant_fault / diverged: what happened, at which time
   CostBreakdown breakdown;  // cost replaced by the fall cost when fell
   double cost = 0.0;
   bool fell = false;
@@ -48,17 +57,21 @@ struct TraceSample {
 };
 using TraceSink = std::function<void(const TraceSample&)>;
 
-// Runs a rollout on `plant`. `seed` drives the contact-sensor noise. Never throws for a bad gait: falls
-// and non-finite plant states end the rollout with the fall cost.
+// Runs a rollout on `plant`. `seed` drives the contact-sensor noise. Never throws for a bad gait: a fall
+// ends the rollout with the fall cost (outcome kFell); a non-finite plant state ends it as kDiverged and a
+// plant fault as kPlantFault, both with the fall cost as a placeholder that must not be learned from.
 RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const RolloutSettings& settings,
                           std::uint64_t seed, const TraceSink& trace = {});
 
 // Loads rollout settings from YAML (keys: entrain_s, eval_s, controller{...}, contact_sensor{...},
 // cost{...}); every key is optional and defaults to the paper's value.
 RolloutSettings load_rollout_settings(const std::string& path);
+// The same from a parsed tree (a study spec's section); errors name the reader's source and field.
+RolloutSettings parse_rollout_settings(const YamlReader& reader);
 
 // Loads a parameter file (a mapping of parameter names to numbers) over `base`.
 CpgParameters load_parameters(const std::string& path, CpgParameters base = {});
+CpgParameters parse_parameters(const YamlReader& reader, CpgParameters base = {});
 
 // Writes the trace as CSV; opens the file and returns a sink that appends one row per sample.
 TraceSink make_csv_trace(const std::string& path);

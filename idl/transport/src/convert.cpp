@@ -42,8 +42,11 @@ void fill_report(msg::RolloutReport& r, const RolloutResult& result) {
   r.early_touchdown_fraction(b.feedback_fraction.early_touchdown);
   r.early_toeoff_fraction(b.feedback_fraction.early_toeoff);
   r.late_toeoff_fraction(b.feedback_fraction.late_toeoff);
-  r.fell(result.fell);
-  r.fall_time_s(result.fell ? result.fall_time_s : -1.0);
+  r.outcome(to_wire(result.outcome));
+  r.ok(result.outcome == RolloutOutcome::kCompleted || result.outcome == RolloutOutcome::kFell);
+  if (!r.ok()) r.error(result.outcome_message.substr(0, 255));
+  r.fell(result.outcome == RolloutOutcome::kFell);
+  r.fall_time_s(r.fell() ? result.fall_time_s : -1.0);
   r.distance_m(b.distance_m);
   r.mean_speed_mps(b.mean_speed_mps);
   r.wall_time_s(result.wall_time_s);
@@ -65,8 +68,50 @@ std::optional<std::string> check_parameters(const std::vector<msg::ParameterValu
   return std::nullopt;
 }
 
+msg::RolloutOutcome to_wire(RolloutOutcome outcome) {
+  switch (outcome) {
+    case RolloutOutcome::kCompleted: return msg::OUTCOME_COMPLETED;
+    case RolloutOutcome::kFell: return msg::OUTCOME_FELL;
+    case RolloutOutcome::kPlantFault: return msg::OUTCOME_PLANT_FAULT;
+    case RolloutOutcome::kDiverged: return msg::OUTCOME_DIVERGED;
+  }
+  return msg::OUTCOME_ERROR;
+}
+
+std::string to_string(msg::RolloutOutcome o) {
+  switch (o) {
+    case msg::OUTCOME_COMPLETED: return "completed";
+    case msg::OUTCOME_FELL: return "fell";
+    case msg::OUTCOME_REFUSED: return "refused";
+    case msg::OUTCOME_PLANT_FAULT: return "plant_fault";
+    case msg::OUTCOME_DIVERGED: return "diverged";
+    case msg::OUTCOME_ERROR: return "error";
+  }
+  return "unknown";
+}
+
+std::optional<msg::RolloutOutcome> outcome_from_string(const std::string& name) {
+  for (const msg::RolloutOutcome o : {msg::OUTCOME_COMPLETED, msg::OUTCOME_FELL, msg::OUTCOME_REFUSED,
+                                      msg::OUTCOME_PLANT_FAULT, msg::OUTCOME_DIVERGED, msg::OUTCOME_ERROR}) {
+    if (to_string(o) == name) return o;
+  }
+  return std::nullopt;
+}
+
+bool reissued_not_spent(msg::RolloutOutcome o) {
+  return o == msg::OUTCOME_REFUSED || o == msg::OUTCOME_PLANT_FAULT || o == msg::OUTCOME_DIVERGED;
+}
+
 std::optional<std::string> check_report(const msg::RolloutReport& r) {
   if (r.worker_id().size() == 0) return std::string("empty worker_id");
+  if (static_cast<int>(r.outcome()) < msg::OUTCOME_COMPLETED || static_cast<int>(r.outcome()) > msg::OUTCOME_ERROR) {
+    return fmt::format("outcome {} is not a RolloutOutcome", static_cast<int>(r.outcome()));
+  }
+  const bool ran = r.outcome() == msg::OUTCOME_COMPLETED || r.outcome() == msg::OUTCOME_FELL;
+  if (r.ok() != ran) return fmt::format("ok = {} contradicts outcome {}", r.ok(), to_string(r.outcome()));
+  if (r.ok() && r.fell() != (r.outcome() == msg::OUTCOME_FELL)) {
+    return fmt::format("fell = {} contradicts outcome {}", r.fell(), to_string(r.outcome()));
+  }
   if (!r.ok()) return std::nullopt;  // a failed rollout carries only its error
   const std::pair<const char*, double> finite[] = {
       {"cost", r.cost()},          {"j_feedback", r.j_feedback()},   {"j_distance", r.j_distance()},

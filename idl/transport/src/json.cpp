@@ -26,6 +26,7 @@ nlohmann::json to_json(const msg::RolloutReport& r) {
           {"worker_id", r.worker_id().to_string()},
           {"worker_kind", to_string(r.worker_kind())},
           {"ok", r.ok()},
+          {"outcome", to_string(r.outcome())},
           {"error", r.error().to_string()},
           {"cost", number(r.cost())},
           {"terms",
@@ -66,6 +67,14 @@ msg::RolloutReport report_from_json(const nlohmann::json& j) {
   r.worker_kind(j.at("worker_kind").get<std::string>() == "hardware" ? msg::WORKER_HARDWARE : msg::WORKER_SIM);
   r.ok(j.at("ok").get<bool>());
   r.error(j.at("error").get<std::string>());
+  // Stores from before outcomes: a report that ran completed or fell, one that did not was an error.
+  const std::optional<msg::RolloutOutcome> outcome =
+      j.contains("outcome") ? outcome_from_string(j.at("outcome").get<std::string>()) : std::nullopt;
+  if (j.contains("outcome") && !outcome) throw std::runtime_error("unknown outcome " + j.at("outcome").dump());
+  r.outcome(outcome ? *outcome
+                    : !r.ok()                     ? msg::OUTCOME_ERROR
+                    : j.at("fell").get<bool>()    ? msg::OUTCOME_FELL
+                                                  : msg::OUTCOME_COMPLETED);
   r.cost(num(j.at("cost")));
   const auto& t = j.at("terms");
   r.j_feedback(num(t.at("feedback")));
@@ -128,7 +137,9 @@ nlohmann::json to_json(const msg::WorkerAnnouncement& w) {
           {"slots", w.slots()},
           {"busy", w.busy()},
           {"completed", w.completed()},
-          {"accepting", w.accepting()}};
+          {"accepting", w.accepting()},
+          {"status", w.status().to_string()},
+          {"objective_version", w.objective_version()}};
 }
 
 nlohmann::json to_json(const msg::TrialRecord& t) {

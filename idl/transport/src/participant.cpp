@@ -40,6 +40,7 @@ fdds::TypeSupport type_support(TopicId id) {
     case TopicId::kCommands: return fdds::TypeSupport(new msg::StudyCommandPubSubType());
     case TopicId::kReplies: return fdds::TypeSupport(new msg::CommandReplyPubSubType());
     case TopicId::kEmergencyStop: return fdds::TypeSupport(new msg::EmergencyStopPubSubType());
+    case TopicId::kStudySpecs: return fdds::TypeSupport(new msg::StudySpecSamplePubSubType());
   }
   throw std::logic_error("unknown topic id");
 }

@@ -24,6 +24,9 @@ const TopicInfo& topic_info(TopicId id) {
   // outlived its sender would stop a robot restarted on purpose. The sender waits for its readers to
   // match and to acknowledge instead (cpgmatch estop).
   static const TopicInfo kEmergencyStop{"cpgmatch/estop", false, 16, 1};
+  // Specs are transient-local, one sample per spec: a worker that joins mid-study gets every open study's
+  // spec at once. The optimizer unregisters a spec when no open study uses it any more.
+  static const TopicInfo kStudySpecs{"cpgmatch/study_specs", true, 1, 1000};
   switch (id) {
     case TopicId::kCandidates: return kCandidates;
     case TopicId::kReports: return kReports;
@@ -33,6 +36,7 @@ const TopicInfo& topic_info(TopicId id) {
     case TopicId::kCommands: return kCommands;
     case TopicId::kReplies: return kReplies;
     case TopicId::kEmergencyStop: return kEmergencyStop;
+    case TopicId::kStudySpecs: return kStudySpecs;
   }
   throw std::logic_error("unknown topic id");
 }

@@ -14,6 +14,7 @@
 #include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/json.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/bo/model_state_json.hpp"
 #include "cpgmatch/service/validation_sets.hpp"
 
 namespace cpgmatch::service {
@@ -25,43 +26,15 @@ namespace {
 constexpr double kStatePublishPeriod_s = 0.1;
 constexpr std::size_t kMaxReplies = 1024;
 
-msg::StudyStatus status_of(const std::string& state) {
-  if (state == "paused") return msg::STUDY_PAUSED;
-  if (state == "done") return msg::STUDY_DONE;
-  if (state == "failed") return msg::STUDY_FAILED;
-  if (state == "stopped") return msg::STUDY_STOPPED;
-  return msg::STUDY_RUNNING;
-}
-
-nlohmann::json model_state_json(const bo::ModelState& m) {
-  nlohmann::json j = {{"observations", m.observations},
-                      {"fits", m.fits},
-                      {"have_hyperparameters", m.have_hyperparameters},
-                      {"hyperparameters", std::vector<double>(m.hyperparameters.data(), m.hyperparameters.data() + m.hyperparameters.size())},
-                      {"hedge_gains", {m.hedge_gains[0], m.hedge_gains[1], m.hedge_gains[2]}}};
-  if (m.have_fall_hyperparameters) {
-    j["fall_hyperparameters"] = std::vector<double>(m.fall_hyperparameters.data(),
-                                                    m.fall_hyperparameters.data() + m.fall_hyperparameters.size());
+msg::StudyStatus status_of(StudyStatus state) {
+  switch (state) {
+    case StudyStatus::kRunning: return msg::STUDY_RUNNING;
+    case StudyStatus::kPaused: return msg::STUDY_PAUSED;
+    case StudyStatus::kDone: return msg::STUDY_DONE;
+    case StudyStatus::kFailed: return msg::STUDY_FAILED;
+    case StudyStatus::kStopped: return msg::STUDY_STOPPED;
   }
-  return j;
-}
-
-bo::ModelState model_state_from_json(const nlohmann::json& j) {
-  bo::ModelState m;
-  m.observations = j.at("observations").get<int>();
-  m.fits = j.at("fits").get<int>();
-  m.have_hyperparameters = j.at("have_hyperparameters").get<bool>();
-  const auto hyper = j.at("hyperparameters").get<std::vector<double>>();
-  m.hyperparameters = Eigen::Map<const Eigen::VectorXd>(hyper.data(), static_cast<Eigen::Index>(hyper.size()));
-  const auto gains = j.at("hedge_gains").get<std::vector<double>>();
-  if (gains.size() != 3) throw std::runtime_error("hedge_gains must hold 3 numbers");
-  m.hedge_gains = Eigen::Vector3d(gains[0], gains[1], gains[2]);
-  if (j.contains("fall_hyperparameters")) {  // absent: no fall seen yet, or a store from before the fall model
-    const auto fall = j.at("fall_hyperparameters").get<std::vector<double>>();
-    m.have_fall_hyperparameters = true;
-    m.fall_hyperparameters = Eigen::Map<const Eigen::VectorXd>(fall.data(), static_cast<Eigen::Index>(fall.size()));
-  }
-  return m;
+  return msg::STUDY_FAILED;
 }
 
 // How many observations the study's saved model state was fitted on; nothing without a usable state
@@ -69,7 +42,7 @@ bo::ModelState model_state_from_json(const nlohmann::json& j) {
 std::optional<int> saved_state_observations(const study::StoredStudy* stored) {
   if (stored == nullptr || !stored->model_state.is_object()) return std::nullopt;
   try {
-    const int n = model_state_from_json(stored->model_state).observations;
+    const int n = bo::model_state_from_json(stored->model_state).observations;
     return n >= 0 ? std::optional<int>(n) : std::nullopt;
   } catch (const std::exception&) {
     return std::nullopt;
@@ -82,7 +55,20 @@ bo::Observation stored_observation(const study::StoredTrial& t) {
   if (t.ok && t.report.is_object() && t.report.contains("fell") && t.report["fell"].is_boolean()) {
     fell = t.report["fell"].get<bool>();
   }
-  return bo::Observation{t.x, t.cost, !t.ok, fell};
+  // A trial spent on faults (its last report a plant fault or a divergence) was never in the model.
+  bool excluded = false;
+  if (!t.ok && t.report.is_object() && t.report.contains("outcome") && t.report["outcome"].is_string()) {
+    const auto outcome = dds::outcome_from_string(t.report["outcome"].get<std::string>());
+    excluded = outcome && dds::reissued_not_spent(*outcome);
+  }
+  return bo::Observation{t.x, t.cost, !t.ok, fell, excluded};
+}
+
+// The origin a migrated spec is stored with: which release resolved it, and why it had to.
+std::string migrated_origin() {
+  return fmt::format("migrated: the study was stored before specs existed; resolved at its first open from the "
+                     "defaults this release ships (objective version {}, the science of the release that wrote it)",
+                     study::kObjectiveVersion);
 }
 
 }  // namespace
@@ -135,7 +121,7 @@ Coordinator::Study* Coordinator::find_study(int study_id) {
 
 bool Coordinator::idle() const {
   for (const auto& [id, s] : studies_) {
-    if (s.state == "running" || !s.in_flight.empty()) return false;
+    if (s.state == StudyStatus::kRunning || !s.in_flight.empty()) return false;
   }
   return true;
 }
@@ -157,18 +143,36 @@ void Coordinator::resume_from_store(double now_s) {
     Study s;
     s.id = stored.study_id;
     s.name = stored.name;
-    s.state = stored.state;
+    s.state = study_status_from_string(stored.state).value_or(StudyStatus::kFailed);
+    if (!study_status_from_string(stored.state)) s.message = fmt::format("unknown stored state '{}'", stored.state);
     s.message = stored.message;
     s.created_at_s = stored.created_at_s;
     try {
-      s.config = study::load_study_config_text(stored.config_yaml, stored.source_name);
+      if (stored.spec.json.empty()) {
+        // A store from before specs: the spec is the defaults of this release (same science), said so.
+        auto spec = std::make_shared<const study::StudySpec>(
+            study::StudySpec::resolve(stored.config_yaml, stored.source_name, spec_defaults()));
+        const study::StoredSpec migrated{spec->canonical_json(), spec->sha256(), migrated_origin()};
+        store_.set_spec(s.id, migrated);
+        info_(fmt::format("study {} '{}': stored before specs; spec {} resolved from this release's defaults", s.id,
+                          s.name, spec->sha256().substr(0, 16)));
+        s.spec = std::move(spec);
+      } else {
+        s.spec = std::make_shared<const study::StudySpec>(
+            study::StudySpec::from_json_text(stored.spec.json, fmt::format("study {} spec", s.id)));
+        if (s.spec->sha256() != stored.spec.sha256) {
+          throw InputError(fmt::format("its stored spec hashes to {}, not to the stored {}", s.spec->sha256(),
+                                       stored.spec.sha256));
+        }
+      }
+      s.config = s.spec->config();
     } catch (const std::exception& e) {
       // Cannot happen for a study this service accepted, unless the file was edited by hand.
       warn_(fmt::format("study {} in {}: its configuration no longer loads ({}); marked failed", s.id, store_.path(),
                         e.what()));
-      s.state = "failed";
+      s.state = StudyStatus::kFailed;
       s.message = e.what();
-      store_.set_state(s.id, s.state, s.message);
+      store_.set_state(s.id, to_string(s.state), s.message);
       continue;
     }
     const int id = s.id;
@@ -180,7 +184,7 @@ void Coordinator::resume_from_store(double now_s) {
       // not take the rest of the store with it: mark it failed with the reason and serve the others.
       studies_.erase(id);
       warn_(fmt::format("study {} in {}: cannot be reopened ({}); marked failed", id, store_.path(), e.what()));
-      store_.set_state(id, "failed", fmt::format("cannot be reopened: {}", e.what()));
+      store_.set_state(id, to_string(StudyStatus::kFailed), fmt::format("cannot be reopened: {}", e.what()));
     }
   }
   if (!studies_.empty()) info_(fmt::format("resumed {} studies from {}", studies_.size(), store_.path()));
@@ -257,6 +261,7 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
     } catch (const std::exception& e) {
       warn_(fmt::format("study {} trial {}: stored report unreadable ({}); counted as failed", id, trial_id, e.what()));
       report.ok(false);
+      report.outcome(msg::OUTCOME_ERROR);
       report.error("stored report unreadable");
     }
     account_report(s, trial_id, t->x, report);  // the optimizer already holds it: counters and best only
@@ -271,12 +276,14 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
       report = dds::report_from_json(t->report);
     } catch (const std::exception& e) {
       report.ok(false);
+      report.outcome(msg::OUTCOME_ERROR);
       report.error("stored report unreadable");
     }
     account_validation(s, t->trial_id, report);
     if (is_open(s)) out_.publish_trial(make_trial_record(s, t->trial_id, t->x, report));
   }
   s.records_retired = !is_open(s);
+  if (is_open(s)) out_.publish_spec(spec_sample(s));  // before any of its candidates
   release_optimizer_if_done(s);
   s.session_start_s = now_s;
   s.completed_at_session_start = s.completed;
@@ -294,7 +301,7 @@ bo::BayesianOptimizer Coordinator::restored_optimizer(const Study& s, const stud
   if (stored != nullptr && stored->model_state.is_object()) {
     try {
       return bo::BayesianOptimizer::restore(s.config.space, s.config.optimizer, observations,
-                                            model_state_from_json(stored->model_state));
+                                            bo::model_state_from_json(stored->model_state));
     } catch (const std::exception& e) {
       warn_(fmt::format("study {}: saved model state unusable ({}); replaying {} observations instead", s.id, e.what(),
                         observations.size()));
@@ -308,9 +315,10 @@ bo::BayesianOptimizer Coordinator::restored_optimizer(const Study& s, const stud
 
 void Coordinator::submit(const msg::StudyCommand& command, double now_s, msg::CommandReply& reply) {
   const std::string source = command.source_name().size() ? command.source_name().to_string() : "submitted study";
-  study::StudyConfig config;
+  std::shared_ptr<const study::StudySpec> spec;
   try {
-    config = study::load_study_config_text(command.study_yaml(), source);
+    spec = std::make_shared<const study::StudySpec>(
+        study::StudySpec::resolve(command.study_yaml(), source, spec_defaults()));
   } catch (const std::exception& e) {
     reply.ok(false);
     reply.message(e.what());
@@ -318,17 +326,19 @@ void Coordinator::submit(const msg::StudyCommand& command, double now_s, msg::Co
     return;
   }
   Study s;
-  s.name = config.name;
-  s.config = std::move(config);
+  s.spec = spec;
+  s.config = spec->config();
+  s.name = s.config.name;
   s.created_at_s = wall_now();
-  s.id = store_.create_study(s.name, command.study_yaml(), source, s.created_at_s);
+  s.id = store_.create_study(s.name, command.study_yaml(), source, s.created_at_s,
+                             study::StoredSpec{spec->canonical_json(), spec->sha256(), study::kOriginSubmitted});
   const int id = s.id;
   info_(fmt::format("study {} '{}' submitted: budget {}, {} parameters", id, s.name, s.config.budget,
                     s.config.space.size()));
   open_study(std::move(s), nullptr, now_s);
   reply.ok(true);
   reply.study_id(static_cast<std::uint32_t>(id));
-  reply.message(fmt::format("study {} '{}' accepted", id, studies_.at(id).name));
+  reply.message(fmt::format("study {} '{}' accepted (spec {})", id, studies_.at(id).name, spec->sha256().substr(0, 16)));
 }
 
 void Coordinator::handle_command(const msg::StudyCommand& command, double now_s) {
@@ -350,21 +360,22 @@ void Coordinator::handle_command(const msg::StudyCommand& command, double now_s)
       if (s == nullptr) {
         reply.message(fmt::format("no study {}", command.study_id()));
       } else {
-        std::string target;
-        if (command.kind() == msg::COMMAND_PAUSE && s->state == "running") target = "paused";
-        if (command.kind() == msg::COMMAND_RESUME && s->state == "paused") target = "running";
-        if (command.kind() == msg::COMMAND_STOP && is_open(*s)) target = "stopped";
-        if (target.empty()) {
-          reply.message(fmt::format("study {} is {}: nothing to do", s->id, s->state));
-          reply.ok(s->state == (command.kind() == msg::COMMAND_PAUSE    ? "paused"
-                                : command.kind() == msg::COMMAND_RESUME ? "running"
-                                                                        : "stopped"));
+        const StudyStatus wanted = command.kind() == msg::COMMAND_PAUSE    ? StudyStatus::kPaused
+                                   : command.kind() == msg::COMMAND_RESUME ? StudyStatus::kRunning
+                                                                           : StudyStatus::kStopped;
+        std::optional<StudyStatus> target;
+        if (wanted == StudyStatus::kPaused && s->state == StudyStatus::kRunning) target = wanted;
+        if (wanted == StudyStatus::kRunning && s->state == StudyStatus::kPaused) target = wanted;
+        if (wanted == StudyStatus::kStopped && is_open(*s)) target = wanted;
+        if (!target) {
+          reply.message(fmt::format("study {} is {}: nothing to do", s->id, to_string(s->state)));
+          reply.ok(s->state == wanted);
         } else {
-          store_.set_state(s->id, target, "");
-          s->state = target;
+          store_.set_state(s->id, to_string(*target), "");
+          s->state = *target;
           s->dirty = true;
           reply.ok(true);
-          reply.message(fmt::format("study {} is {}", s->id, target));
+          reply.message(fmt::format("study {} is {}", s->id, to_string(*target)));
           info_(reply.message().to_string());
           publish_state(*s, now_s);
         }
@@ -405,29 +416,30 @@ void Coordinator::handle_worker(const msg::WorkerAnnouncement& w, double now_s,
   // it alive (its heartbeats would hide the real worker's silence).
   if (auto why = identity_refusal(id, sender_identity)) return reject("worker announcement " + id, *why);
   if (w.slots() < 1 || w.slots() > 4096) return reject("worker announcement " + id, fmt::format("slots = {}", w.slots()));
-  auto [it, is_new] = workers_.try_emplace(id);
-  Worker& worker = it->second;
-  worker.id = id;
-  worker.key = w.worker_key();
-  worker.slots = static_cast<int>(w.slots());
-  worker.hardware = w.kind() == msg::WORKER_HARDWARE;
-  worker.accepting = w.accepting();
-  worker.last_seen_s = now_s;
-  if (is_new) {
+  const AnnouncementEffect effect =
+      pool_.announce(id, w.worker_key(), static_cast<int>(w.slots()), w.kind() == msg::WORKER_HARDWARE, w.accepting(),
+                     w.status().to_string(), now_s);
+  if (effect.accepts_again) {
+    // Accepting again (an emergency stop released): its refusals no longer hold.
+    for (auto& [sid, s] : studies_) s.refused_by.erase(id);
+  }
+  if (effect.joined) {
     info_(fmt::format("worker {} joined: {} slots, {} on {}", id, w.slots(), dds::to_string(w.kind()), w.host().to_string()));
+  }
+  if (effect.joined || effect.availability_changed) {
     for (auto& [sid, s] : studies_) s.dirty = true;
   }
 }
 
 void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s,
                                      const std::optional<std::string>& disposed_by) {
-  for (const auto& [id, w] : workers_) {
-    if (w.key != worker_key) continue;
-    if (disposed_by) {
-      if (auto why = identity_refusal(id, disposed_by)) return reject("dispose of worker " + id, *why);
-    }
-    return drop_worker(id, "left the domain", now_s);
+  const PoolWorker* w = pool_.by_key(worker_key);
+  if (w == nullptr) return;
+  const std::string id = w->id;
+  if (disposed_by) {
+    if (auto why = identity_refusal(id, disposed_by)) return reject("dispose of worker " + id, *why);
   }
+  drop_worker(id, "left the domain", now_s);
 }
 
 void Coordinator::unassign(Study& study, int trial_id, const std::string& why) {
@@ -440,10 +452,8 @@ void Coordinator::unassign(Study& study, int trial_id, const std::string& why) {
 }
 
 void Coordinator::drop_worker(const std::string& worker_id, const std::string& why, double) {
-  const auto it = workers_.find(worker_id);
-  if (it == workers_.end()) return;
-  const auto assigned = it->second.assigned;
-  workers_.erase(it);
+  if (pool_.find(worker_id) == nullptr) return;
+  const auto assigned = pool_.remove(worker_id);
   info_(fmt::format("worker {} {} with {} candidates assigned", worker_id, why, assigned.size()));
   for (const auto& [study_id, trial_id] : assigned) {
     if (Study* s = find_study(study_id)) unassign(*s, trial_id, "worker " + why);
@@ -461,6 +471,7 @@ msg::Candidate Coordinator::make_candidate(const Study& study, int trial_id, con
   c.attempt(static_cast<std::uint32_t>(f.attempt));
   c.worker_id(f.worker_id);
   c.lease_s(study.config.effective_lease_s());
+  c.spec_key(study.spec->key());
   msg::RolloutSpec spec;
   spec.entrain_s(study.config.entrain_s);
   spec.eval_s(study.config.eval_s);
@@ -470,13 +481,13 @@ msg::Candidate Coordinator::make_candidate(const Study& study, int trial_id, con
   // point can exploit. Still a pure function of (study seed, trial id): same seed, same study.
   spec.seed(derived_seed(study.config.optimizer.seed, static_cast<std::uint64_t>(trial_id)));
   c.rollout(spec);
-  std::map<std::string, double> full = to_map(options_.base_parameters);
+  std::map<std::string, double> full = to_map(study.spec->base_parameters());
   for (const auto& [name, value] : study.config.space.to_named(f.x)) full[name] = value;
   c.parameters(dds::to_wire(full));
   return c;
 }
 
-void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue) {
+void Coordinator::issue(Study& study, int trial_id, PoolWorker& worker, double now_s, bool reissue) {
   InFlight& f = study.in_flight.at(trial_id);
   if (reissue) {
     ++f.attempt;
@@ -489,45 +500,11 @@ void Coordinator::issue(Study& study, int trial_id, Worker& worker, double now_s
   f.worker_id = worker.id;
   f.issued_to[f.attempt] = worker.id;
   f.deadline_s = now_s + study.config.effective_lease_s();
-  worker.assigned.insert({study.id, trial_id});
+  pool_.assign(worker.id, study.id, trial_id);
   out_.send_candidate(make_candidate(study, trial_id, f));
   study.dirty = true;
 }
 
-int Coordinator::slots_free(const Worker& w) const {
-  const int usable = probation_.count(w.id) > 0 ? std::min(w.slots, 1) : w.slots;
-  return std::max(0, usable - static_cast<int>(w.assigned.size()));
-}
-
-std::vector<Coordinator::Worker*> Coordinator::free_slots(bool hardware) {
-  std::vector<Worker*> ready;
-  std::map<Worker*, int> free;
-  for (auto& [id, w] : workers_) {
-    if (w.hardware == hardware && w.accepting && slots_free(w) > 0) {
-      ready.push_back(&w);
-      free[&w] = slots_free(w);
-    }
-  }
-  // Workers on probation come last: work goes to one only when no worker in good standing has a slot.
-  // Otherwise the same never-answering worker would take the same re-issued trial lease after lease (seen
-  // in deploy.forged_identity: the study's last trial stalled until the rogue left).
-  std::stable_partition(ready.begin(), ready.end(), [this](const Worker* w) { return probation_.count(w->id) == 0; });
-  std::vector<Worker*> slots;
-  for (const bool on_probation : {false, true}) {
-    bool any = true;
-    while (any) {
-      any = false;
-      for (Worker* w : ready) {
-        if ((probation_.count(w->id) > 0) == on_probation && free[w] > 0) {
-          slots.push_back(w);
-          --free[w];
-          any = true;
-        }
-      }
-    }
-  }
-  return slots;
-}
 
 std::vector<Coordinator::Study*> Coordinator::round_robin_order() {
   std::vector<Study*> order;
@@ -539,30 +516,95 @@ std::vector<Coordinator::Study*> Coordinator::round_robin_order() {
 
 Coordinator::FreeSlots Coordinator::issue_waiting_work(const std::vector<Study*>& order, double now_s) {
   struct Slots {
-    std::vector<Worker*> slots;
+    std::vector<PoolWorker*> slots;
     std::size_t next = 0;
     int free() const { return static_cast<int>(slots.size() - next); }
+    // Moves the free slots this study may use to the front (in their order) and says how many there are:
+    // a worker within a refusal's backoff for this study serves the other studies meanwhile.
+    int usable_for(const Study& study, double now) {
+      const auto first = slots.begin() + static_cast<std::ptrdiff_t>(next);
+      const auto end = std::stable_partition(first, slots.end(), [&](const PoolWorker* w) { return may_serve(study, *w, now); });
+      return static_cast<int>(end - first);
+    }
   };
-  Slots sim{free_slots(false)}, hw{free_slots(true)};
+  Slots sim{pool_.free_slots(false)}, hw{pool_.free_slots(true)};
   // Every candidate written this tick counts against max_issues_per_tick (the DDS writes of a full fill
   // would stall the event loop, see CoordinatorOptions), whichever kind of slot it goes to: a tick that
   // reaches the cap leaves the other slots free for the next ticks, and they still count as free below.
   for (Study* s : order) {
-    if (s->state != "running") continue;
+    if (s->state != StudyStatus::kRunning) continue;
     Slots& explore = explores_on_hardware(*s) ? hw : sim;
     // Re-issues (and stored validation sets) first: they are the oldest work.
     for (auto& [trial_id, f] : s->in_flight) {
       if (!f.worker_id.empty()) continue;
       Slots& kind = f.validation ? hw : explore;
-      if (kind.free() == 0 || issues_left_this_tick_ <= 0) continue;
+      if (issues_left_this_tick_ <= 0 || kind.usable_for(*s, now_s) == 0) continue;
       issue(*s, trial_id, *kind.slots[kind.next++], now_s, !f.issued_to.empty());
       --issues_left_this_tick_;
     }
     const std::size_t before = explore.next;
-    issue_proposed(*s, explore.slots, explore.next, std::max(0, issues_left_this_tick_), now_s);
+    const int usable = explore.usable_for(*s, now_s);
+    issue_proposed(*s, explore.slots, explore.next, std::max(0, std::min(issues_left_this_tick_, usable)), now_s);
     issues_left_this_tick_ -= static_cast<int>(explore.next - before);
   }
   return {sim.free(), hw.free()};
+}
+
+bool Coordinator::may_serve(const Study& study, const PoolWorker& worker, double now_s) {
+  const auto r = study.refused_by.find(worker.id);
+  return r == study.refused_by.end() || now_s >= r->second.until_s;
+}
+
+void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutReport& r, double now_s) {
+  InFlight& f = s.in_flight.at(trial_id);
+  const std::string worker_id = r.worker_id().to_string();
+  const bool fault = r.outcome() != msg::OUTCOME_REFUSED;
+  const std::string outcome = dds::to_string(r.outcome());
+  const int faults = store_.record_unspent_attempt(s.id, trial_id, static_cast<int>(r.attempt()), worker_id, outcome,
+                                                   dds::to_json(r), fault, wall_now());
+  pool_.release(worker_id, s.id, trial_id);
+  if (!fault) {
+    // The worker cannot run this study now: keep the study's work off it for a while (or until it says it
+    // accepts again), so a refusal never turns into a loop of refusals.
+    s.refused_by[worker_id] = Refusal{now_s + options_.refusal_backoff_s, r.error().to_string()};
+  }
+  if (fault && faults >= options_.max_fault_retries) {
+    // Spent after all, as a failure the model never sees (excluded): the point was tried often enough.
+    const Eigen::VectorXd x = f.x;
+    const bool validation = f.validation;
+    if (!store_.complete_trial(s.id, trial_id, false, 0.0, dds::to_json(r), wall_now())) return;
+    msg::Candidate retired = make_candidate(s, trial_id, f);
+    s.in_flight.erase(trial_id);
+    if (validation) account_validation(s, trial_id, r);
+    else count_report(s, trial_id, x, r);
+    out_.retire_candidate(retired);
+    if (!s.records_retired) out_.publish_trial(make_trial_record(s, trial_id, x, r));
+    warn_(fmt::format("study {} trial {}: {} {} times (last on {}: {}); spent as a failure the model does not learn "
+                      "from",
+                      s.id, trial_id, outcome, faults, worker_id, r.error().to_string()));
+    finish_if_complete(s);
+    s.dirty = true;
+    if (!is_open(s)) publish_state(s, now_s);
+    return;
+  }
+  info_(fmt::format("study {} trial {}: {} by {} ({}); re-issuing{}", s.id, trial_id, outcome, worker_id,
+                    r.error().to_string(), fault ? fmt::format(" (fault {} of at most {})", faults, options_.max_fault_retries) : ""));
+  f.worker_id.clear();
+  ++s.reissued;
+  s.dirty = true;
+}
+
+msg::StudySpecSample Coordinator::spec_sample(const Study& s) {
+  msg::StudySpecSample sample;
+  sample.spec_key(s.spec->key());
+  sample.objective_version(s.spec->objective_version());
+  sample.sha256(s.spec->sha256());
+  sample.spec_json(s.spec->canonical_json());
+  return sample;
+}
+
+study::SpecDefaults Coordinator::spec_defaults() const {
+  return options_.spec_defaults.model_path.empty() ? study::SpecDefaults::shipped() : options_.spec_defaults;
 }
 
 int Coordinator::exploring_in_flight(const Study& s) {
@@ -571,11 +613,11 @@ int Coordinator::exploring_in_flight(const Study& s) {
 }
 
 bool Coordinator::has_hardware_worker() const {
-  return std::any_of(workers_.begin(), workers_.end(), [](const auto& kv) { return kv.second.hardware; });
+  return pool_.has_hardware();
 }
 
 bool Coordinator::start_validation_if_due(Study& s) {
-  if (s.state != "running" || !s.config.validation.enabled || s.validation_started) return false;
+  if (s.state != StudyStatus::kRunning || !s.config.validation.enabled || s.validation_started) return false;
   // The answer is final only once every exploration report is in and told to the model.
   if (s.completed < s.config.budget || !s.in_flight.empty() || !s.proposed.empty() || !s.untold.empty() ||
       s.model_busy) {
@@ -589,9 +631,9 @@ bool Coordinator::start_validation_if_due(Study& s) {
   } else if (s.best_x.size() == s.config.space.size()) {
     centre = s.best_x;
   } else {
-    s.state = "failed";
+    s.state = StudyStatus::kFailed;
     s.message = "validation: no successful exploration rollout to validate around";
-    store_.set_state(s.id, s.state, s.message);
+    store_.set_state(s.id, to_string(s.state), s.message);
     warn_(fmt::format("study {} failed: {}", s.id, s.message));
     s.dirty = true;
     return false;
@@ -615,22 +657,53 @@ bool Coordinator::start_validation_if_due(Study& s) {
   return true;
 }
 
-void Coordinator::note_hardware_wait(Study& s) {
+void Coordinator::note_hardware_wait(Study& s, double now_s) {
   bool waits = false;
-  if (s.state == "running" && !has_hardware_worker()) {
+  if (s.state == StudyStatus::kRunning && !has_hardware_worker()) {
     for (const auto& [trial_id, f] : s.in_flight) waits |= f.worker_id.empty() && (f.validation || explores_on_hardware(s));
     waits |= explores_on_hardware(s) && s.completed < s.config.budget;
   }
-  if (waits == s.waiting_for_hardware) return;
+  // Work that waits with workers of its kind on the domain, none of which may take it: say who and why.
+  std::string blocked;
+  if (s.state == StudyStatus::kRunning && !waits) {
+    bool sim_work = false, hw_work = false;
+    for (const auto& [trial_id, f] : s.in_flight) {
+      if (!f.worker_id.empty()) continue;
+      (f.validation || explores_on_hardware(s) ? hw_work : sim_work) = true;
+    }
+    if (s.in_flight.empty() && s.completed < s.config.budget && s.proposed.empty() && !s.model_busy) {
+      (explores_on_hardware(s) ? hw_work : sim_work) = true;
+    }
+    std::vector<std::string> reasons;
+    bool any_usable = false;
+    for (const auto& [id, w] : pool_.all()) {
+      if (!((w.hardware && hw_work) || (!w.hardware && sim_work))) continue;
+      if (w.accepting && may_serve(s, w, now_s)) {
+        any_usable = true;
+        break;
+      }
+      if (!w.accepting) {
+        reasons.push_back(fmt::format("{} {} {}", w.hardware ? "robot" : "worker", id,
+                                      w.status.empty() ? std::string("not accepting") : w.status));
+      } else {
+        reasons.push_back(fmt::format("worker {} refused it: {}", id, s.refused_by.at(id).why));
+      }
+    }
+    if (!any_usable && !reasons.empty()) {
+      for (const auto& reason : reasons) blocked += (blocked.empty() ? "waiting: " : "; ") + reason;
+    }
+  }
+  if (waits == s.waiting_for_hardware && blocked == s.waiting_message) return;
   s.waiting_for_hardware = waits;
-  if (s.state != "running") return;  // its message is the final one now
+  s.waiting_message = blocked;
+  if (s.state != StudyStatus::kRunning) return;  // its message is the final one now
   // A transient condition: in the published state only, never in the store (a restart re-derives it).
   s.message = waits ? fmt::format("waiting_for_hardware: {} needs a hardware worker; none on the domain",
                                   s.validation_started ? fmt::format("validation ({}/{} sets run)", s.validated,
                                                                      s.config.validation.hardware_sets)
                                                        : std::string("the exploration"))
-                    : std::string();
-  if (waits) info_(fmt::format("study {}: {}", s.id, s.message));
+                    : blocked;
+  if (!s.message.empty()) info_(fmt::format("study {}: {}", s.id, s.message));
   s.dirty = true;
 }
 
@@ -652,7 +725,7 @@ bool Coordinator::count_outcome(Study& s, const msg::RolloutReport& r) {
   return true;
 }
 
-void Coordinator::issue_proposed(Study& s, std::vector<Worker*>& slots, std::size_t& next_slot, int max_count,
+void Coordinator::issue_proposed(Study& s, std::vector<PoolWorker*>& slots, std::size_t& next_slot, int max_count,
                                  double now_s) {
   std::vector<study::StoredTrial> stored;
   while (!s.proposed.empty() && next_slot + stored.size() < slots.size() &&
@@ -679,14 +752,14 @@ void Coordinator::start_model_jobs(const std::vector<Study*>& order, FreeSlots f
   // Points already proposed and waiting for a slot (the issue cap held them back) will fill free slots too.
   int wanted[2] = {free.simulation, free.hardware};
   for (const auto& [id, s] : studies_) {
-    wanted[explores_on_hardware(s)] -= s.asking + (s.state == "running" ? static_cast<int>(s.proposed.size()) : 0);
+    wanted[explores_on_hardware(s)] -= s.asking + (s.state == StudyStatus::kRunning ? static_cast<int>(s.proposed.size()) : 0);
   }
   int new_budget = options_.max_new_candidates_per_tick;  // points asked for this tick, over all studies
   for (Study* s : order) {
     if (s->model_busy || !s->optimizer) continue;
     int n = 0;
     int& wanted_here = wanted[explores_on_hardware(*s)];
-    if (s->state == "running") {
+    if (s->state == StudyStatus::kRunning) {
       const int remaining = s->config.budget - s->completed - exploring_in_flight(*s) -
                             static_cast<int>(s->proposed.size());
       n = std::max(0, std::min({remaining, wanted_here, new_budget}));
@@ -812,7 +885,7 @@ void Coordinator::start_lockstep_model_job(Study& s, int ask) {
         xs.push_back(x);
       }
       while (told < told0 + static_cast<int>(tells.size())) tell_next();
-      if (!tells.empty()) fitted.emplace(snapshot_of(*optimizer, told_trials), model_state_json(optimizer->model_state()));
+      if (!tells.empty()) fitted.emplace(snapshot_of(*optimizer, told_trials), bo::model_state_to_json(optimizer->model_state()));
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -846,7 +919,7 @@ void Coordinator::start_model_job(Study& s, int ask) {
     try {
       if (!tells.empty()) {
         optimizer->tell_batch(tells);  // one fit for every report since the last job
-        fitted.emplace(snapshot_of(*optimizer, told_trials), model_state_json(optimizer->model_state()));
+        fitted.emplace(snapshot_of(*optimizer, told_trials), bo::model_state_to_json(optimizer->model_state()));
       }
       if (ask > 0) points = optimizer->ask(ask, pending);
     } catch (const std::exception& e) {
@@ -912,12 +985,18 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
   // The worker_id names the assigned worker; with DDS-Security it must also be the sender's own.
   if (auto why = identity_refusal(r.worker_id().to_string(), sender_identity)) return reject(what, *why);
   // The assigned worker answered an attempt of its own: it is no longer on probation (counted or not).
-  if (probation_.erase(r.worker_id().to_string()) > 0) {
+  if (pool_.end_probation(r.worker_id().to_string())) {
+    const PoolWorker* w = pool_.find(r.worker_id().to_string());
     info_(fmt::format("worker {} reported again: off probation, all its {} slots usable", r.worker_id().to_string(),
-                      [&] {
-                        const auto w = workers_.find(r.worker_id().to_string());
-                        return w == workers_.end() ? 0 : w->second.slots;
-                      }()));
+                      w == nullptr ? 0 : w->slots));
+  }
+  if (dds::reissued_not_spent(r.outcome())) {
+    if (static_cast<int>(r.attempt()) != it->second.attempt || it->second.worker_id != r.worker_id().to_string()) {
+      info_(fmt::format("ignored a stale {} ({}): attempt {} is no longer the trial's current one", what,
+                        dds::to_string(r.outcome()), r.attempt()));
+      return;
+    }
+    return handle_unspent(*s, trial_id, r, now_s);
   }
   const Eigen::VectorXd x = it->second.x;
   const bool validation = it->second.validation;
@@ -925,7 +1004,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
     info_(fmt::format("ignored a duplicate {} (already in the store)", what));
     return;
   }
-  if (auto w = workers_.find(it->second.worker_id); w != workers_.end()) w->second.assigned.erase({s->id, trial_id});
+  pool_.release(it->second.worker_id, s->id, trial_id);
   msg::Candidate retired = make_candidate(*s, trial_id, it->second);
   s->in_flight.erase(it);
   if (validation) {
@@ -936,11 +1015,11 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
   out_.retire_candidate(retired);
   if (!s->records_retired) out_.publish_trial(make_trial_record(*s, trial_id, x, r));  // else: the store has it
   if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id().to_string(), r.error().to_string()));
-  if (s->state == "running" && s->consecutive_failures >= options_.max_consecutive_failures) {
-    s->state = "failed";
+  if (s->state == StudyStatus::kRunning && s->consecutive_failures >= options_.max_consecutive_failures) {
+    s->state = StudyStatus::kFailed;
     s->message = fmt::format("{} rollouts in a row could not run; last error: {}", s->consecutive_failures,
                              r.error().to_string());
-    store_.set_state(s->id, s->state, s->message);
+    store_.set_state(s->id, to_string(s->state), s->message);
     warn_(fmt::format("study {} failed: {}", s->id, s->message));
   }
   finish_if_complete(*s);
@@ -948,7 +1027,8 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
 }
 
 void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
-  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.cost() : 0.0, !r.ok(), r.ok() && r.fell()});
+  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.cost() : 0.0, !r.ok(), r.ok() && r.fell(),
+                                                  !r.ok() && dds::reissued_not_spent(r.outcome())});
   account_report(s, trial_id, x, r);
 }
 
@@ -966,13 +1046,13 @@ void Coordinator::account_report(Study& s, int trial_id, const Eigen::VectorXd& 
 }
 
 void Coordinator::finish_if_complete(Study& s) {
-  if (s.state != "running" || s.completed < s.config.budget) return;
+  if (s.state != StudyStatus::kRunning || s.completed < s.config.budget) return;
   const auto& v = s.config.validation;
   if (v.enabled && (!s.validation_started || s.validated < v.hardware_sets)) return;  // the hardware phase
-  s.state = "done";
+  s.state = StudyStatus::kDone;
   s.message = fmt::format("{} rollouts, best cost {:.4g} (trial {})", s.completed, s.best_cost, s.best_trial);
   if (v.enabled) s.message += fmt::format("; {} validation sets run on hardware", s.validated);
-  store_.set_state(s.id, s.state, s.message);
+  store_.set_state(s.id, to_string(s.state), s.message);
   info_(fmt::format("study {} '{}' done: {}", s.id, s.name, s.message));
   s.dirty = true;
 }
@@ -1006,7 +1086,7 @@ void Coordinator::publish_state(Study& s, double now_s) {
   st.failed(static_cast<std::uint32_t>(s.failed));
   st.falls(static_cast<std::uint32_t>(s.falls));
   st.reissued(static_cast<std::uint32_t>(s.reissued));
-  st.workers(static_cast<std::uint32_t>(workers_.size()));
+  st.workers(static_cast<std::uint32_t>(pool_.size()));
   st.best_cost(s.best_cost);
   st.best_trial(static_cast<std::uint32_t>(s.best_trial));
   st.best_params(dds::to_wire(s.best_params));
@@ -1040,24 +1120,25 @@ void Coordinator::retire_finished(Study& s, double now_s) {
     out_.retire_trial(key);
   }
   s.records_retired = true;
+  // Its spec leaves the topic too, unless another open study runs the same spec.
+  const bool shared = std::any_of(studies_.begin(), studies_.end(), [&](const auto& kv) {
+    return kv.second.id != s.id && is_open(kv.second) && kv.second.spec && kv.second.spec->key() == s.spec->key();
+  });
+  if (!shared && s.spec) out_.retire_spec(spec_sample(s));
   release_optimizer_if_done(s);
 }
 
 void Coordinator::tick(double now_s) {
   issues_left_this_tick_ = std::max(1, options_.max_issues_per_tick);
   apply_model_results();
-  std::vector<std::string> silent;
-  for (const auto& [id, w] : workers_) {
-    if (now_s - w.last_seen_s > options_.worker_timeout_s) silent.push_back(id);
-  }
-  for (const auto& id : silent) drop_worker(id, fmt::format("silent for over {:.1f} s", options_.worker_timeout_s), now_s);
+  for (const auto& id : pool_.silent(now_s, options_.worker_timeout_s)) drop_worker(id, fmt::format("silent for over {:.1f} s", options_.worker_timeout_s), now_s);
   for (auto& [sid, s] : studies_) {
     for (auto& [trial_id, f] : s.in_flight) {
       if (f.worker_id.empty() || now_s <= f.deadline_s) continue;
-      if (auto w = workers_.find(f.worker_id); w != workers_.end()) w->second.assigned.erase({s.id, trial_id});
+      pool_.release(f.worker_id, s.id, trial_id);
       // It took a candidate and did not answer in time: until it answers, one candidate at a time, so a
       // worker that claims many slots and never reports cannot hold a study's work lease after lease.
-      if (probation_.insert(f.worker_id).second) {
+      if (pool_.put_on_probation(f.worker_id)) {
         warn_(fmt::format("worker {} on probation: the lease of study {} trial {} expired; at most 1 candidate at a "
                           "time until it reports",
                           f.worker_id, s.id, trial_id));
@@ -1074,7 +1155,7 @@ void Coordinator::tick(double now_s) {
   if (validation_started) issue_waiting_work(order, now_s);
   for (Study* s : order) {
     finish_if_complete(*s);
-    note_hardware_wait(*s);
+    note_hardware_wait(*s, now_s);
   }
   for (auto& [sid, s] : studies_) {
     retire_finished(s, now_s);

@@ -94,12 +94,15 @@ BayesianOptimizer::Dataset BayesianOptimizer::dataset() const {
   double worst = -std::numeric_limits<double>::infinity();
   for (const auto& o : observations_) if (!o.failed) worst = std::max(worst, o.y);
   Dataset d;
-  const int n = static_cast<int>(observations_.size());
+  const int n = static_cast<int>(std::count_if(observations_.begin(), observations_.end(),
+                                               [](const Observation& o) { return !o.excluded; }));
   d.X.resize(n, space_.size());
   d.y.resize(n);
-  for (int i = 0; i < n; ++i) {
-    d.X.row(i) = space_.to_unit(observations_[i].x).transpose();
-    d.y[i] = to_model(observations_[i].failed ? worst : observations_[i].y);
+  int row = 0;
+  for (const Observation& o : observations_) {
+    if (o.excluded) continue;
+    d.X.row(row) = space_.to_unit(o.x).transpose();
+    d.y[row++] = to_model(o.failed ? worst : o.y);
   }
   return d;
 }
@@ -135,6 +138,7 @@ void BayesianOptimizer::tell_failure(const Eigen::VectorXd& x) {
 void BayesianOptimizer::tell_batch(const std::vector<Observation>& batch) {
   for (const auto& o : batch) {
     space_.check_point(o.x);
+    if (o.excluded && !o.failed) throw InputError("tell_batch: an excluded observation must be a failed one");
     if (!o.failed) check_cost(o.y, "tell_batch");
   }
   if (batch.empty()) return;
@@ -550,7 +554,8 @@ BayesianOptimizer BayesianOptimizer::restore(SearchSpace space, OptimizerOptions
     opt.propose(data);
   }
   for (std::size_t i = state.observations; i < observations.size(); ++i) {
-    if (observations[i].failed) opt.tell_failure(observations[i].x);
+    if (observations[i].excluded) opt.tell_batch({observations[i]});
+    else if (observations[i].failed) opt.tell_failure(observations[i].x);
     else opt.tell(observations[i].x, observations[i].y, observations[i].fell);
   }
   return opt;
@@ -560,7 +565,8 @@ BayesianOptimizer BayesianOptimizer::rebuild(SearchSpace space, OptimizerOptions
                                              const std::vector<Observation>& observations) {
   BayesianOptimizer opt(std::move(space), options);
   for (const auto& o : observations) {
-    if (o.failed) opt.tell_failure(o.x);
+    if (o.excluded) opt.tell_batch({o});
+    else if (o.failed) opt.tell_failure(o.x);
     else opt.tell(o.x, o.y, o.fell);
   }
   return opt;

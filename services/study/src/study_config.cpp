@@ -34,7 +34,9 @@ constexpr double kMaxRolloutPartS = 3600.0;  // entrainment or evaluation, secon
 StudyConfig parse(const YamlReader& r) {
   r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
                          "cost_transform", "fall_model", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation",
-                         "lockstep"});
+                         "lockstep",
+                         // the study's objective, resolved by StudySpec (study_spec.hpp) and checked there
+                         "model", "rollout_settings", "base_parameters"});
   StudyConfig s;
   // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");

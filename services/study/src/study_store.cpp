@@ -130,6 +130,19 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
              PRIMARY KEY(study_id, trial_id)))");
     add_column_if_missing("trials", "report_seq", "INTEGER NOT NULL DEFAULT 0");
     add_column_if_missing("trials", "phase", "TEXT NOT NULL DEFAULT 'exploration'");
+    // A trial's attempts that did not measure it (plant faults, divergences): counted against the retry
+    // bound across restarts; each attempt's report is kept in `attempts`.
+    add_column_if_missing("trials", "faults", "INTEGER NOT NULL DEFAULT 0");
+    // The study's resolved spec (study_spec.hpp): what its rollouts compute, by content. Empty in stores
+    // from before specs until the service migrates them (spec_origin then says so).
+    add_column_if_missing("studies", "spec_json", "TEXT NOT NULL DEFAULT ''");
+    add_column_if_missing("studies", "spec_sha256", "TEXT NOT NULL DEFAULT ''");
+    add_column_if_missing("studies", "spec_origin", "TEXT NOT NULL DEFAULT ''");
+    exec(R"(CREATE TABLE IF NOT EXISTS attempts(
+             study_id INTEGER NOT NULL REFERENCES studies(study_id),
+             trial_id INTEGER NOT NULL, attempt INTEGER NOT NULL, worker_id TEXT NOT NULL,
+             outcome TEXT NOT NULL, report_json TEXT NOT NULL, reported_at REAL NOT NULL,
+             PRIMARY KEY(study_id, trial_id, attempt, worker_id)))");
     exec(R"(CREATE TABLE IF NOT EXISTS model_states(
              study_id INTEGER PRIMARY KEY REFERENCES studies(study_id),
              state_json TEXT NOT NULL))");
@@ -190,10 +203,51 @@ void StudyStore::require_writable() const {
 }
 
 int StudyStore::create_study(const std::string& name, const std::string& config_yaml, const std::string& source_name,
-                             double now_s) {
-  Statement s(db_, "INSERT INTO studies(name, config_yaml, source_name, state, created_at) VALUES(?, ?, ?, 'running', ?)");
-  s.bind(1, name).bind(2, config_yaml).bind(3, source_name).bind(4, now_s).run();
+                             double now_s, const StoredSpec& spec) {
+  Statement s(db_, R"(INSERT INTO studies(name, config_yaml, source_name, state, created_at, spec_json, spec_sha256,
+                      spec_origin) VALUES(?, ?, ?, 'running', ?, ?, ?, ?))");
+  s.bind(1, name).bind(2, config_yaml).bind(3, source_name).bind(4, now_s);
+  s.bind(5, spec.json).bind(6, spec.sha256).bind(7, spec.origin).run();
   return static_cast<int>(sqlite3_last_insert_rowid(db_));
+}
+
+void StudyStore::set_spec(int study_id, const StoredSpec& spec) {
+  Statement s(db_, "UPDATE studies SET spec_json = ?, spec_sha256 = ?, spec_origin = ? WHERE study_id = ?");
+  s.bind(1, spec.json).bind(2, spec.sha256).bind(3, spec.origin).bind(4, study_id).run();
+}
+
+int StudyStore::record_unspent_attempt(int study_id, int trial_id, int attempt, const std::string& worker_id,
+                                       const std::string& outcome, const nlohmann::json& report, bool fault,
+                                       double now_s) {
+  Statement a(db_, R"(INSERT OR IGNORE INTO attempts(study_id, trial_id, attempt, worker_id, outcome, report_json,
+                      reported_at) VALUES(?, ?, ?, ?, ?, ?, ?))");
+  a.bind(1, study_id).bind(2, trial_id).bind(3, attempt).bind(4, worker_id).bind(5, outcome).bind(6, report.dump());
+  a.bind(7, now_s).run();
+  if (fault && sqlite3_changes(db_) == 1) {
+    Statement f(db_, "UPDATE trials SET faults = faults + 1 WHERE study_id = ? AND trial_id = ?");
+    f.bind(1, study_id).bind(2, trial_id).run();
+  }
+  Statement q(db_, "SELECT faults FROM trials WHERE study_id = ? AND trial_id = ?");
+  q.bind(1, study_id).bind(2, trial_id);
+  return q.step() ? q.column_int(0) : 0;
+}
+
+std::vector<StoredAttempt> StudyStore::unspent_attempts(int study_id) const {
+  std::vector<StoredAttempt> out;
+  Statement s(db_, R"(SELECT trial_id, attempt, worker_id, outcome, report_json, reported_at FROM attempts
+                      WHERE study_id = ? ORDER BY reported_at, trial_id, attempt)");
+  s.bind(1, study_id);
+  while (s.step()) {
+    StoredAttempt a;
+    a.trial_id = s.column_int(0);
+    a.attempt = s.column_int(1);
+    a.worker_id = s.column_text(2);
+    a.outcome = s.column_text(3);
+    a.report = nlohmann::json::parse(s.column_text(4), nullptr, false);
+    a.reported_at_s = s.column_double(5);
+    out.push_back(std::move(a));
+  }
+  return out;
 }
 
 void StudyStore::set_state(int study_id, const std::string& state, const std::string& message) {
@@ -273,7 +327,8 @@ void StudyStore::save_model_state(int study_id, const nlohmann::json& state) {
 std::vector<StoredStudy> StudyStore::load_all() const {
   std::vector<StoredStudy> out;
   {
-    Statement s(db_, "SELECT study_id, name, config_yaml, source_name, state, message, created_at FROM studies ORDER BY study_id");
+    Statement s(db_, R"(SELECT study_id, name, config_yaml, source_name, state, message, created_at, spec_json,
+                        spec_sha256, spec_origin FROM studies ORDER BY study_id)");
     while (s.step()) {
       StoredStudy st;
       st.study_id = s.column_int(0);
@@ -283,11 +338,12 @@ std::vector<StoredStudy> StudyStore::load_all() const {
       st.state = s.column_text(4);
       st.message = s.column_text(5);
       st.created_at_s = s.column_double(6);
+      st.spec = StoredSpec{s.column_text(7), s.column_text(8), s.column_text(9)};
       out.push_back(std::move(st));
     }
   }
   Statement s(db_, R"(SELECT study_id, trial_id, x_json, status, attempt, worker_id, issued_at, reported_at, ok, cost,
-                      report_json, report_seq, phase FROM trials ORDER BY study_id, trial_id)");
+                      report_json, report_seq, phase, faults FROM trials ORDER BY study_id, trial_id)");
   std::size_t k = 0;
   while (s.step()) {
     const int study_id = s.column_int(0);
@@ -315,6 +371,7 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     t.cost = s.column_double(9);
     t.report_seq = s.column_int(11);
     t.phase = s.column_text(12);
+    t.faults = s.column_int(13);
     out[k].trials.push_back(std::move(t));
   }
   Statement m(db_, "SELECT study_id, state_json FROM model_states");

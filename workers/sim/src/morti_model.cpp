@@ -61,8 +61,9 @@ MotorModel motor(const YamlReader& r, const std::string& key, MotorModel fallbac
 
 }  // namespace
 
-MortiModel load_morti_model(const std::string& path) {
-  const YamlReader r = YamlReader::from_file(path);
+MortiModel load_morti_model(const std::string& path) { return parse_morti_model(YamlReader::from_file(path)); }
+
+MortiModel parse_morti_model(const YamlReader& r) {
   MortiModel m;
   r.reject_unknown_keys({"trunk", "femur", "shank", "foot", "leg", "knee_spring", "biarticular_spring",
                          "hip_motor", "knee_motor", "contact", "simulation"});

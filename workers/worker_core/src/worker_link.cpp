@@ -35,7 +35,22 @@ WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
           },
           [this](const msg::Candidate& key, dds::InstanceGone gone) {
             if (gone.disposed) acknowledged(key);  // not on a lost optimizer: its successor needs the reports
-          }) {
+          }),
+      spec_reader_(participant_, [this](const msg::StudySpecSample& sample) {
+        // Kept as received; whoever uses it checks the hash and the version (SpecBook).
+        std::lock_guard<std::mutex> lock(specs_mutex_);
+        const bool is_new = specs_.count(sample.spec_key()) == 0;
+        specs_[sample.spec_key()] = ReceivedSpec{sample.spec_key(), sample.objective_version(),
+                                                 sample.sha256().to_string(), sample.spec_json().to_string()};
+        if (is_new) {
+          spec_order_.push_back(sample.spec_key());
+          if (spec_order_.size() > kMaxSpecs) {
+            specs_.erase(spec_order_.front());
+            spec_order_.pop_front();
+          }
+        }
+        spec_arrived_.notify_all();
+      }) {
   if (config_.on_emergency_stop) {
     stops_ = std::make_unique<dds::Reader<msg::EmergencyStop>>(participant_, config_.on_emergency_stop);
   }
@@ -56,7 +71,23 @@ void WorkerLink::acknowledged(const msg::Candidate& key) {
   if (const auto report = kept_.acknowledge(key)) reports_.unregister(*report);
 }
 
+void WorkerLink::set_accepting(bool accepting, const std::string& status) {
+  {
+    std::lock_guard<std::mutex> lock(announce_mutex_);
+    status_ = status.substr(0, 255);
+  }
+  accepting_ = accepting;
+  announce(accepting);  // now, not at the next heartbeat: the optimizer must stop assigning at once
+}
+
+std::optional<ReceivedSpec> WorkerLink::spec(std::uint64_t key, std::chrono::milliseconds wait) {
+  std::unique_lock<std::mutex> lock(specs_mutex_);
+  if (!spec_arrived_.wait_for(lock, wait, [&] { return specs_.count(key) > 0; })) return std::nullopt;
+  return specs_.at(key);
+}
+
 void WorkerLink::announce(bool accepting) {
+  std::lock_guard<std::mutex> lock(announce_mutex_);
   const CandidateQueue::Load load = queue_.load();
   msg::WorkerAnnouncement a;
   a.worker_key(dds::worker_key(config_.worker_id));
@@ -67,6 +98,8 @@ void WorkerLink::announce(bool accepting) {
   a.slots(config_.slots);
   a.heartbeat_period_s(config_.heartbeat_s);
   a.accepting(accepting);
+  a.status(accepting ? std::string() : status_);
+  a.objective_version(config_.objective_version);
   a.busy(load.busy);
   a.completed(load.completed);
   announcements_.write(a);
@@ -87,12 +120,17 @@ void WorkerLink::heartbeat_until(const std::function<bool()>& stop) {
     }
     std::this_thread::sleep_for(std::min<Clock::duration>(std::chrono::milliseconds(50), next - Clock::now()));
   }
+  {
+    std::lock_guard<std::mutex> lock(announce_mutex_);
+    status_ = "shutting down";
+  }
   announce(false);
 }
 
 void WorkerLink::leave() {
   // Reliable delivery of the last reports needs a moment before the writer goes away.
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::lock_guard<std::mutex> lock(announce_mutex_);
   announcements_.unregister(last_announcement_);
 }
 

@@ -23,6 +23,12 @@ void fill_report(msg::RolloutReport& report, const RolloutResult& result);
 // values outside a parameter's valid range.
 std::optional<std::string> check_parameters(const std::vector<msg::ParameterValue>& values);
 
+msg::RolloutOutcome to_wire(RolloutOutcome outcome);
+std::string to_string(msg::RolloutOutcome outcome);  // completed|fell|refused|plant_fault|diverged|error
+std::optional<msg::RolloutOutcome> outcome_from_string(const std::string& name);
+// Refused, plant_fault, diverged: the rollout did not measure the point; its trial is issued again.
+bool reissued_not_spent(msg::RolloutOutcome outcome);
+
 // A reason to reject a report before it touches a study (NaN cost on an ok report, negative times...).
 std::optional<std::string> check_report(const msg::RolloutReport& report);
 

@@ -12,7 +12,8 @@
 
 namespace cpgmatch::dds {
 
-enum class TopicId { kCandidates, kReports, kWorkers, kStudyState, kTrials, kCommands, kReplies, kEmergencyStop };
+enum class TopicId { kCandidates, kReports, kWorkers, kStudyState, kTrials, kCommands, kReplies, kEmergencyStop,
+                     kStudySpecs };
 
 struct TopicInfo {
   const char* name;
@@ -36,6 +37,7 @@ template <> struct TopicOf<msg::TrialRecord> { static constexpr TopicId id = Top
 template <> struct TopicOf<msg::StudyCommand> { static constexpr TopicId id = TopicId::kCommands; };
 template <> struct TopicOf<msg::CommandReply> { static constexpr TopicId id = TopicId::kReplies; };
 template <> struct TopicOf<msg::EmergencyStop> { static constexpr TopicId id = TopicId::kEmergencyStop; };
+template <> struct TopicOf<msg::StudySpecSample> { static constexpr TopicId id = TopicId::kStudySpecs; };
 
 // Seconds a worker's announcement stays alive without a heartbeat (DDS liveliness lease).
 inline constexpr double kWorkerLivelinessLease_s = 2.0;

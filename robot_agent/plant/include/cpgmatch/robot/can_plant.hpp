@@ -12,7 +12,7 @@
 //   loop misses max_consecutive_overruns deadlines in a row, on a bus-off error frame, or when the
 //   loop itself stops ticking (a separate thread watches it); tripping sends every motor the safe state
 //   (kp = 0, feed-forward 0, damping) at once and keeps sending it;
-// - once tripped, state() reports a non-finite trunk so the rollout ends at once; fault() says why.
+// - once tripped, fault() says why and the rollout ends at once as a plant fault (state() also reports a non-finite trunk).
 #pragma once
 
 #include <array>
@@ -82,7 +82,7 @@ class CanPlant final : public Plant {
   // the rollout had ended by itself (a fall, its last period) is not the rollout's failure.
   bool fault_ended_rollout() const { return fault_seen_.load(std::memory_order_acquire); }
   // Why the watchdog tripped, or nullopt.
-  std::optional<std::string> fault() const;
+  std::optional<std::string> fault() const override;
   LoopStats loop_stats() const;
   // When the safe state first went out after a trip, and the last reply of the motor that had been
   // silent longest at that moment (monotonic ns; 0 = never): after a silence the watchdog's reaction

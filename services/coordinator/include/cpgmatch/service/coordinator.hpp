@@ -25,6 +25,12 @@
 //    (CoordinatorOptions::require_authenticated_workers) also only when that worker id belongs to the
 //    sender's certificate (its CN, or CN/suffix: dds::worker_id_belongs_to), and a participant may only
 //    announce worker ids its certificate owns. The DDS shell hands in the sender's authenticated CN.
+//  * a study owns its objective: its spec (study_spec.hpp) is resolved and stored at submit, published on
+//    cpgmatch/study_specs while the study is open, and named by every candidate; workers run exactly it.
+//  * a refused candidate is never a spent trial: a refusal (a latched emergency stop, a spec the worker
+//    cannot run) re-issues it and keeps the study off that worker for a moment; a plant fault or a
+//    diverged simulation re-issues it too, up to max_fault_retries faults, after which it is spent as a
+//    failure the model never sees (bo::Observation::excluded).
 //  * a slot count is a claim, not a right: a worker whose lease expired (it took a candidate and never
 //    answered in time) is on probation, with at most one candidate at a time, until a report of its own
 //    arrives for an attempt it was issued. Probation outlives the worker's leaving and rejoining.
@@ -43,8 +49,11 @@
 
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/service/model_pool.hpp"
+#include "cpgmatch/service/study_status.hpp"
+#include "cpgmatch/service/worker_pool.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/study/study_config.hpp"
+#include "cpgmatch/study/study_spec.hpp"
 #include "cpgmatch/study/study_store.hpp"
 #include "cpgmatch_msgs.h"
 
@@ -60,6 +69,9 @@ class Outbox {
   virtual void retire_trial(const msg::TrialRecord& t) = 0;
   virtual void publish_state(const msg::StudyState& s) = 0;
   virtual void reply(const msg::CommandReply& r) = 0;
+  // An open study's spec on cpgmatch/study_specs, and its leaving once no open study uses it.
+  virtual void publish_spec(const msg::StudySpecSample&) {}
+  virtual void retire_spec(const msg::StudySpecSample&) {}
 };
 
 // Holds what the coordinator publishes while a store batch (study::StudyStore::Batch) is open, and
@@ -82,6 +94,8 @@ class DeferredOutbox final : public Outbox {
   void retire_trial(const msg::TrialRecord& t) override { pass([t](Outbox& o) { o.retire_trial(t); }); }
   void publish_state(const msg::StudyState& s) override { pass([s](Outbox& o) { o.publish_state(s); }); }
   void reply(const msg::CommandReply& r) override { pass([r](Outbox& o) { o.reply(r); }); }
+  void publish_spec(const msg::StudySpecSample& s) override { pass([s](Outbox& o) { o.publish_spec(s); }); }
+  void retire_spec(const msg::StudySpecSample& s) override { pass([s](Outbox& o) { o.retire_spec(s); }); }
 
  private:
   void pass(std::function<void(Outbox&)> send) {
@@ -109,7 +123,13 @@ struct CoordinatorOptions {
   // after it ended, for clients following it live (`study run` collects them at the end); then they leave
   // the DDS writer, whose memory would otherwise grow with every trial ever run. The store keeps them.
   double finished_records_grace_s = 30.0;
-  CpgParameters base_parameters;       // values of CPG parameters a study neither optimises nor fixes
+  // The defaults a submitted study file's overrides are merged onto (empty paths: the shipped configs/).
+  study::SpecDefaults spec_defaults;
+  // Plant faults and divergences a trial may have before it is spent as a failure (never told as a cost).
+  int max_fault_retries = 3;
+  // A worker that refused a study's candidate gets none of that study's for this long (seconds), unless it
+  // announces that it accepts again (an emergency stop released): a refusal costs a message, never a trial.
+  double refusal_backoff_s = 2.0;
   // Every `now_s` handed to the coordinator is *monotonic* time (timeouts and leases must not fire, or
   // hang, when the wall clock is stepped); this clock gives the Unix time written to the store and shown
   // as a study's age. Empty: the system clock.
@@ -166,14 +186,14 @@ class Coordinator {
   int model_jobs_outstanding() const { return models_.outstanding(); }
 
   // Numbers for logs and tests.
-  int live_workers() const { return static_cast<int>(workers_.size()); }
+  int live_workers() const { return pool_.size(); }
   int studies() const { return static_cast<int>(studies_.size()); }
   bool idle() const;  // no running study has work left
   // Points a study's model has proposed that wait for a free slot (0 for an unknown study).
   int points_waiting(int study_id) const;
   std::uint64_t rejected_samples() const { return rejected_; }
   std::uint64_t foreign_reports() const { return foreign_reports_; }  // for another store: ignored
-  bool on_probation(const std::string& worker_id) const { return probation_.count(worker_id) > 0; }
+  bool on_probation(const std::string& worker_id) const { return pool_.on_probation(worker_id); }
 
  private:
   struct InFlight {
@@ -194,10 +214,16 @@ class Coordinator {
     std::map<std::string, double> recommended_params;
     Eigen::VectorXd recommended_x;  // the same point in the search space (the validation sets' centre)
   };
+  struct Refusal {
+    double until_s = 0.0;
+    std::string why;
+  };
   struct Study {
     int id = 0;
     std::string name;
-    study::StudyConfig config;
+    std::shared_ptr<const study::StudySpec> spec;  // what its rollouts compute
+    study::StudyConfig config;                     // spec->config(), kept by value for the hot paths
+    std::map<std::string, Refusal> refused_by;     // worker id -> its latest refusal of this study
     // Once the study is open, only its model jobs touch the optimizer (one at a time): the event thread
     // reads the model through `model` and never waits for it.
     std::shared_ptr<bo::BayesianOptimizer> optimizer;
@@ -210,7 +236,7 @@ class Coordinator {
     std::vector<int> told_trials;        // trial id of each optimizer observation, in the order told
     int next_trial_id = 0;
     int completed = 0, failed = 0, falls = 0, reissued = 0, consecutive_failures = 0;
-    std::string state = "running";
+    StudyStatus state = StudyStatus::kRunning;
     std::string message;
     double best_cost = std::nan("");
     int best_trial = 0;
@@ -220,6 +246,7 @@ class Coordinator {
     int validated = 0;                 // validation reports counted (not in `completed`)
     std::vector<int> validation_trials;  // counted validation trials, for retiring their records
     bool waiting_for_hardware = false;   // hardware work waits and no hardware worker is live
+    std::string waiting_message;         // why work waits (published, never stored), "" when nothing waits
     double best_normalized_torque = std::nan(""), best_speed_mps = std::nan("");
     double created_at_s = 0.0, session_start_s = 0.0;
     int completed_at_session_start = 0;
@@ -227,22 +254,10 @@ class Coordinator {
     double records_leave_at_s = -1.0;  // monotonic time its trial records leave the topic (<0: not set)
     bool records_retired = false;      // they have (or, after a restart, were never published)
   };
-  struct Worker {
-    std::string id;
-    std::uint64_t key = 0;
-    int slots = 0;
-    bool hardware = false;  // announced WORKER_HARDWARE
-    bool accepting = true;
-    double last_seen_s = 0.0;
-    std::set<std::pair<int, int>> assigned;  // (study, trial)
-  };
-
   void reject(const std::string& what, const std::string& why);
   // With require_authenticated_workers: why `sender_identity` may not speak for `worker_id`, or nothing.
   std::optional<std::string> identity_refusal(const std::string& worker_id,
                                               const std::optional<std::string>& sender_identity) const;
-  // Free slots a worker may be given now: its announced slots, or one while on probation, minus what it holds.
-  int slots_free(const Worker& w) const;
   void submit(const msg::StudyCommand& command, double now_s, msg::CommandReply& reply);
   Study* find_study(int study_id);
   void open_study(Study&& study, const study::StoredStudy* stored, double now_s);
@@ -252,8 +267,6 @@ class Coordinator {
     int simulation = 0;
     int hardware = 0;
   };
-  // Free worker slots of one kind, one entry per slot, spread across workers (most free first).
-  std::vector<Worker*> free_slots(bool hardware);
   static bool explores_on_hardware(const Study& s) {
     return s.config.explore_on == study::WorkerKindWanted::kHardware;
   }
@@ -275,13 +288,23 @@ class Coordinator {
   void account_validation(Study& study, int trial_id, const msg::RolloutReport& report);
   // Failures, falls and the failure streak of one report, either phase; false when it did not run.
   bool count_outcome(Study& study, const msg::RolloutReport& report);
-  // Says in the study's message whether hardware work waits for a hardware worker.
-  void note_hardware_wait(Study& study);
+  // Says in the study's message whether its work waits, and for what (no hardware worker, a robot under an
+  // emergency stop, workers that refused its spec).
+  void note_hardware_wait(Study& study, double now_s);
+  // True when this worker may be given this study's work now (not within a refusal's backoff).
+  static bool may_serve(const Study& study, const PoolWorker& worker, double now_s);
+  // A report that did not measure its trial (refused, plant_fault, diverged): re-issue it, or spend it as an
+  // excluded failure once its faults reach the bound.
+  void handle_unspent(Study& study, int trial_id, const msg::RolloutReport& report, double now_s);
+  // The study's spec as a DDS sample.
+  static msg::StudySpecSample spec_sample(const Study& study);
+  // Resolves a study's spec (the service's defaults when options_.spec_defaults names none).
+  study::SpecDefaults spec_defaults() const;
   // Running studies, rotated by one each tick so that no study is always served first.
   std::vector<Study*> round_robin_order();
   // Re-issues, then proposed points, to free slots of the right kind; returns the slots still free.
   FreeSlots issue_waiting_work(const std::vector<Study*>& order, double now_s);
-  void issue_proposed(Study& study, std::vector<Worker*>& slots, std::size_t& next_slot, int max_count, double now_s);
+  void issue_proposed(Study& study, std::vector<PoolWorker*>& slots, std::size_t& next_slot, int max_count, double now_s);
   // Starts a model job for each study with reports to tell or free slots to ask for (per-tick cap).
   void start_model_jobs(const std::vector<Study*>& order, FreeSlots free);
   void start_model_job(Study& study, int ask);
@@ -290,7 +313,7 @@ class Coordinator {
   static ModelSnapshot snapshot_of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials);
   // Frees the optimizer of a study whose records are retired once nothing can still reach it.
   static void release_optimizer_if_done(Study& study);
-  void issue(Study& study, int trial_id, Worker& worker, double now_s, bool reissue);
+  void issue(Study& study, int trial_id, PoolWorker& worker, double now_s, bool reissue);
   // A new report: queued for the study's next model job (which tells it and saves the model state), then accounted.
   void count_report(Study& study, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& report);
   // Counters and best of a report the optimizer already holds (a restart's replay).
@@ -306,7 +329,7 @@ class Coordinator {
   void publish_state(Study& study, double now_s);
   // A finished study, its grace period over: trial records off the topic, model dropped.
   void retire_finished(Study& study, double now_s);
-  bool is_open(const Study& s) const { return s.state == "running" || s.state == "paused"; }
+  static bool is_open(const Study& s) { return service::is_open(s.state); }
 
   study::StudyStore& store_;
   Outbox& out_;
@@ -314,7 +337,7 @@ class Coordinator {
   LogFn info_, warn_;
   double wall_now() const;  // Unix time, for the store
   std::map<int, Study> studies_;
-  std::map<std::string, Worker> workers_;
+  WorkerPool pool_;
   std::map<int, double> last_state_publish_;
   // Replies by (client_id, correlation_id): a client re-sends a command whose reply it did not get, and
   // gets the same reply again instead of a second execution (a second study, say). Last kMaxReplies.
@@ -325,9 +348,6 @@ class Coordinator {
   std::uint64_t rejected_ = 0;
   std::uint64_t foreign_reports_ = 0;
   std::set<std::uint64_t> foreign_stores_;  // store ids whose reports were ignored (logged once each)
-  // Workers whose lease expired and who have not reported since: one candidate at a time. By id, not in
-  // Worker, so that leaving and rejoining the domain does not clear it.
-  std::set<std::string> probation_;
   ModelPool models_;  // last member: destroyed first, so no job outlives what it refers to
 };
 

@@ -94,6 +94,10 @@ struct Observation {
   double y = 0.0;     // meaningful only when !failed
   bool failed = false;
   bool fell = false;  // a successful evaluation that ended in a fall (y is its cost, still valid)
+  // A failed evaluation that says nothing about its point (a robot fault, a diverged simulation, retried
+  // until its bound): kept in order, so counts and saved states stay aligned, but never in the model,
+  // not even as the worst cost a plain failure is imputed.
+  bool excluded = false;
 };
 
 struct HedgeState {

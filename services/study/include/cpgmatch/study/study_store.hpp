@@ -48,6 +48,25 @@ struct StoredTrial {
   // "exploration" (told to the optimizer) or "validation" (a hardware set around the answer, never told).
   // Stores older than the column read as exploration, which is all they held.
   std::string phase = "exploration";
+  int faults = 0;                  // attempts that ended in a plant fault or a divergence (not spent)
+};
+
+// A study's resolved spec as stored (study_spec.hpp): the canonical JSON, its SHA-256, and where it came
+// from ("submitted", or "migrated: ..." for a study stored before specs existed). Empty json: none yet.
+struct StoredSpec {
+  std::string json;
+  std::string sha256;
+  std::string origin;
+};
+
+// An attempt of a trial that did not measure it (refused, plant_fault, diverged): kept for the record.
+struct StoredAttempt {
+  int trial_id = 0;
+  int attempt = 0;
+  std::string worker_id;
+  std::string outcome;
+  nlohmann::json report;
+  double reported_at_s = 0.0;
 };
 
 struct StoredStudy {
@@ -61,6 +80,7 @@ struct StoredStudy {
   std::vector<StoredTrial> trials; // by trial_id
   nlohmann::json model_state;      // the optimizer's saved state (null: none saved, e.g. an older store)
   std::string load_error;          // non-empty: a row of this study could not be read (its trials are incomplete)
+  StoredSpec spec;
 };
 
 class StudyStore {
@@ -72,7 +92,15 @@ class StudyStore {
   StudyStore& operator=(const StudyStore&) = delete;
 
   int create_study(const std::string& name, const std::string& config_yaml, const std::string& source_name,
-                   double now_s);
+                   double now_s, const StoredSpec& spec = {});
+  // Gives a study its spec (a study stored before specs, migrated on first open).
+  void set_spec(int study_id, const StoredSpec& spec);
+  // Records an attempt that did not measure its trial (the trial stays in flight, to be issued again);
+  // `fault`: it counts against the trial's retry bound. Returns the trial's fault count afterwards. A
+  // repeated (study, trial, attempt, worker) is recorded once.
+  int record_unspent_attempt(int study_id, int trial_id, int attempt, const std::string& worker_id,
+                             const std::string& outcome, const nlohmann::json& report, bool fault, double now_s);
+  std::vector<StoredAttempt> unspent_attempts(int study_id) const;
   void set_state(int study_id, const std::string& state, const std::string& message);
   // Inserts new in-flight trials in one transaction.
   void add_trials(int study_id, const std::vector<StoredTrial>& trials);

@@ -8,6 +8,10 @@
 
 #include <string>
 
+namespace cpgmatch {
+class YamlReader;
+}
+
 namespace cpgmatch::sim {
 
 struct SegmentModel {
@@ -67,5 +71,7 @@ struct MortiModel {
 
 // Loads a model YAML; throws InputError naming the file, line and field on bad input.
 MortiModel load_morti_model(const std::string& path);
+// The same from a parsed tree (a study spec's model section); errors name the reader's source.
+MortiModel parse_morti_model(const YamlReader& reader);
 
 }  // namespace cpgmatch::sim

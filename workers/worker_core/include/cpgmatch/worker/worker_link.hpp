@@ -10,10 +10,15 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "cpgmatch/dds/participant.hpp"
@@ -34,6 +39,16 @@ struct WorkerLinkConfig {
   // Robot agents only: emergency-stop commands (cpgmatch/estop), called on a DDS thread. Unset: no
   // reader, so a simulation worker never subscribes.
   std::function<void(const msg::EmergencyStop&)> on_emergency_stop;
+  // The objective version this worker computes (study::kObjectiveVersion), announced with every heartbeat.
+  std::uint32_t objective_version = 0;
+};
+
+// A study spec as received on cpgmatch/study_specs (study_spec.hpp says what is in it).
+struct ReceivedSpec {
+  std::uint64_t key = 0;
+  std::uint32_t objective_version = 0;
+  std::string sha256;
+  std::string json;
 };
 
 class WorkerLink {
@@ -49,9 +64,14 @@ class WorkerLink {
   // One announcement: id, kind, capacity, and the queue's load.
   void announce(bool accepting);
 
-  // False while the worker must not be given work (a latched emergency stop): announced at once, so the
-  // optimizer stops assigning to it; the heartbeats carry it from then on.
-  void set_accepting(bool accepting) { accepting_ = accepting; }
+  // False while the worker must not be given work (a latched emergency stop), with the reason in words:
+  // announced at once from the calling thread, so the optimizer stops assigning to it; the heartbeats
+  // carry it from then on.
+  void set_accepting(bool accepting, const std::string& status = "");
+
+  // The spec with this key, waiting up to `wait` for it to arrive (a candidate and its study's spec travel
+  // on two topics, so the candidate can come first); nothing when it did not arrive in time.
+  std::optional<ReceivedSpec> spec(std::uint64_t key, std::chrono::milliseconds wait);
 
   // Announces every heartbeat period until `stop` returns true (checked every 50 ms, so a signal is
   // acted on quickly), then once more as not accepting.
@@ -73,6 +93,14 @@ class WorkerLink {
   KeptReports kept_;
   msg::WorkerAnnouncement last_announcement_;
   std::atomic<bool> accepting_{true};
+  std::mutex announce_mutex_;  // announcements come from the heartbeat thread and from set_accepting()
+  std::string status_;         // guarded by announce_mutex_
+  // Specs received, by key; the oldest leave past kMaxSpecs (a spec is about 10 kB).
+  static constexpr std::size_t kMaxSpecs = 256;
+  std::mutex specs_mutex_;
+  std::condition_variable spec_arrived_;
+  std::map<std::uint64_t, ReceivedSpec> specs_;
+  std::deque<std::uint64_t> spec_order_;
   // Last: the readers' callbacks use everything above, so they must be created after and destroyed first.
   // Every candidate on the domain and every dispose (the optimizer's acknowledgement of a report); the
   // queue keeps only this worker's candidates. Why not a DDS content filter on worker_id: the optimizer
@@ -82,6 +110,7 @@ class WorkerLink {
   // of this one reader (tests/bench/proposal_throughput.sh, docs/dds.md).
   dds::Reader<msg::Candidate> candidates_;
   std::unique_ptr<dds::Reader<msg::EmergencyStop>> stops_;
+  dds::Reader<msg::StudySpecSample> spec_reader_;
 };
 
 }  // namespace cpgmatch::worker

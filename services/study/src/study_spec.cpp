@@ -1,0 +1,262 @@
+#include "cpgmatch/study/study_spec.hpp"
+
+#include <openssl/evp.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/yaml_reader.hpp"
+
+namespace cpgmatch::study {
+
+namespace {
+
+// The sections of a spec besides the study's own keys, and the default file each is merged onto.
+constexpr const char* kModel = "model";
+constexpr const char* kSettings = "rollout_settings";
+constexpr const char* kBaseParameters = "base_parameters";
+constexpr const char* kStudy = "study";
+
+std::string sha256_hex(const std::string& text) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  if (EVP_Digest(text.data(), text.size(), digest, &length, EVP_sha256(), nullptr) != 1) {
+    throw std::runtime_error("SHA-256 of a study spec failed (OpenSSL EVP_Digest)");
+  }
+  std::string hex;
+  for (unsigned int i = 0; i < length; ++i) hex += fmt::format("{:02x}", digest[i]);
+  return hex;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(fmt::format("{}: cannot open file", path));
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+nlohmann::json scalar_to_json(const YAML::Node& node) {
+  const std::string& text = node.Scalar();
+  if (node.Tag() == "!") return text;  // quoted: a string whatever it looks like
+  if (text == "true" || text == "True" || text == "TRUE") return true;
+  if (text == "false" || text == "False" || text == "FALSE") return false;
+  if (text.empty() || text == "~" || text == "null" || text == "Null" || text == "NULL") return nullptr;
+  char* end = nullptr;
+  const long long integer = std::strtoll(text.c_str(), &end, 10);
+  if (end == text.c_str() + text.size() && text.find_first_of(".eE") == std::string::npos) {
+    return static_cast<std::int64_t>(integer);
+  }
+  const double number = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() + text.size() && std::isfinite(number)) return number;
+  return text;
+}
+
+// Every number of a model, settings or parameter tree as a double: the loaders read doubles, and "20" and
+// "20.0" must be the same experiment (and the same hash).
+void numbers_to_double(nlohmann::json& j) {
+  if (j.is_number()) {
+    j = j.get<double>();
+  } else if (j.is_structured()) {
+    for (auto& item : j) numbers_to_double(item);
+  }
+}
+
+std::string number_text(double v) {
+  std::string text = fmt::format("{}", v);  // shortest text that reads back to the same double
+  if (text.find_first_of(".eEn") == std::string::npos) text += ".0";  // stays a double when read back
+  return text;
+}
+
+void emit(YAML::Emitter& out, const nlohmann::json& j) {
+  if (j.is_object()) {
+    out << YAML::BeginMap;
+    for (const auto& [key, value] : j.items()) {
+      out << YAML::Key << key << YAML::Value;
+      emit(out, value);
+    }
+    out << YAML::EndMap;
+  } else if (j.is_array()) {
+    out << YAML::BeginSeq;
+    for (const auto& item : j) emit(out, item);
+    out << YAML::EndSeq;
+  } else if (j.is_string()) {
+    out << YAML::DoubleQuoted << j.get<std::string>();
+  } else if (j.is_boolean()) {
+    out << (j.get<bool>() ? "true" : "false");
+  } else if (j.is_number_float()) {
+    out << number_text(j.get<double>());
+  } else if (j.is_number()) {
+    out << j.dump();
+  } else {
+    out << YAML::Null;
+  }
+}
+
+// A model entry with its provenance: {value: X, source: "..."}.
+bool is_sourced_value(const nlohmann::json& j) { return j.is_object() && j.contains("value"); }
+
+std::string known_keys(const nlohmann::json& j) {
+  std::string out;
+  for (const auto& [key, value] : j.items()) out += (out.empty() ? "" : ", ") + key;
+  return out;
+}
+
+// Merges a study file's overrides (with their file:line) onto a default tree. Only keys the default has
+// may be overridden, with a value of the same shape: a typo is an error, never a silently new key.
+void merge_overrides(nlohmann::json& target, const YamlReader& overrides) {
+  overrides.check_keys();
+  for (const auto& entry : overrides.node()) {
+    const std::string key = entry.first.Scalar();
+    if (!target.contains(key)) {
+      overrides.fail(key, fmt::format("no such key here (known: {})", known_keys(target)));
+    }
+    nlohmann::json& slot = target[key];
+    const YAML::Node& value = entry.second;
+    if (value.IsMap()) {
+      if (!slot.is_object()) overrides.fail(key, "is a single value here, not a mapping");
+      merge_overrides(slot, overrides.child(key));
+      continue;
+    }
+    if (!value.IsScalar()) overrides.fail(key, "must be a value or a mapping");
+    nlohmann::json replacement = scalar_to_json(value);
+    nlohmann::json& leaf = is_sourced_value(slot) ? slot["value"] : slot;
+    if (leaf.is_object()) overrides.fail(key, "is a mapping here, not a single value");
+    const bool same_kind = (leaf.is_number() && replacement.is_number()) ||
+                           (leaf.is_boolean() && replacement.is_boolean()) ||
+                           (leaf.is_string() && replacement.is_string());
+    if (!same_kind) {
+      overrides.fail(key, fmt::format("'{}' is not a {}", value.Scalar(),
+                                      leaf.is_number() ? "number" : leaf.is_boolean() ? "boolean (true/false)" : "string"));
+    }
+    leaf = replacement;
+    if (is_sourced_value(slot) && slot.contains("source")) {
+      // Keep provenance honest: the default's source no longer describes this number.
+      if (slot["value"] != nlohmann::json(nullptr)) slot["source"] = "study override";
+    }
+  }
+}
+
+nlohmann::json default_tree(const std::string& path) {
+  const YamlReader r = YamlReader::from_string(read_file(path), path);
+  nlohmann::json j = yaml_to_json(r.node());
+  numbers_to_double(j);
+  return j;
+}
+
+YamlReader reader_of(const nlohmann::json& tree, const std::string& source_name) {
+  return YamlReader::from_string(json_to_yaml(tree), source_name);
+}
+
+}  // namespace
+
+nlohmann::json yaml_to_json(const YAML::Node& node) {
+  if (node.IsMap()) {
+    nlohmann::json j = nlohmann::json::object();
+    for (const auto& entry : node) j[entry.first.Scalar()] = yaml_to_json(entry.second);
+    return j;
+  }
+  if (node.IsSequence()) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const auto& item : node) j.push_back(yaml_to_json(item));
+    return j;
+  }
+  if (node.IsScalar()) return scalar_to_json(node);
+  return nullptr;
+}
+
+std::string json_to_yaml(const nlohmann::json& tree) {
+  YAML::Emitter out;
+  emit(out, tree);
+  return std::string(out.c_str()) + "\n";
+}
+
+std::string spec_key_hex(std::uint64_t key) { return fmt::format("{:016x}", key); }
+
+SpecDefaults SpecDefaults::shipped() {
+  return SpecDefaults{sim::default_model_path(), sim::default_rollout_settings_path(), sim::default_params_path()};
+}
+
+StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& source_name,
+                             const SpecDefaults& defaults, std::uint32_t objective_version) {
+  const YamlReader r = YamlReader::from_string(study_yaml, source_name);
+  (void)load_study_config_text(study_yaml, source_name);  // the study's own keys, with file:line errors
+  nlohmann::json tree = nlohmann::json::object();
+  tree["objective_version"] = objective_version;
+  nlohmann::json study = nlohmann::json::object();
+  for (const auto& entry : r.node()) {
+    const std::string key = entry.first.Scalar();
+    if (key != kModel && key != kSettings && key != kBaseParameters) study[key] = yaml_to_json(entry.second);
+  }
+  tree[kStudy] = std::move(study);
+
+  nlohmann::json model = default_tree(defaults.model_path);
+  nlohmann::json settings = default_tree(defaults.rollout_settings_path);
+  // A rollout's length is the study's (`rollout: {entrain_s, eval_s}`), never the settings file's.
+  settings.erase("entrain_s");
+  settings.erase("eval_s");
+  nlohmann::json base = default_tree(defaults.base_parameters_path);
+  if (base.contains("params")) base = nlohmann::json(base["params"]);
+  // Every CPG parameter gets a value, so a spec never depends on a worker's compiled-in defaults.
+  for (const auto& [name, value] : to_map(CpgParameters{})) {
+    if (!base.contains(name)) base[name] = value;
+  }
+  if (r.has(kModel)) merge_overrides(model, r.child(kModel));
+  if (r.has(kSettings)) merge_overrides(settings, r.child(kSettings));
+  if (r.has(kBaseParameters)) merge_overrides(base, r.child(kBaseParameters));
+  numbers_to_double(model);
+  numbers_to_double(settings);
+  numbers_to_double(base);
+  tree[kModel] = std::move(model);
+  tree[kSettings] = std::move(settings);
+  tree[kBaseParameters] = std::move(base);
+  return StudySpec(std::move(tree), source_name);
+}
+
+StudySpec StudySpec::from_json_text(const std::string& canonical_json, const std::string& source_name) {
+  nlohmann::json tree;
+  try {
+    tree = nlohmann::json::parse(canonical_json);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: study spec is not JSON: {}", source_name, e.what()));
+  }
+  return StudySpec(std::move(tree), source_name);
+}
+
+StudySpec::StudySpec(nlohmann::json tree, const std::string& source_name) : tree_(std::move(tree)) {
+  for (const char* section : {kStudy, kModel, kSettings, kBaseParameters}) {
+    if (!tree_.contains(section) || !tree_[section].is_object()) {
+      throw InputError(fmt::format("{}: study spec has no '{}' mapping", source_name, section));
+    }
+  }
+  if (!tree_.contains("objective_version") || !tree_["objective_version"].is_number_unsigned()) {
+    throw InputError(fmt::format("{}: study spec has no objective_version", source_name));
+  }
+  objective_version_ = tree_["objective_version"].get<std::uint32_t>();
+  canonical_ = tree_.dump();
+  sha256_ = sha256_hex(canonical_);
+  key_ = std::strtoull(sha256_.substr(0, 16).c_str(), nullptr, 16);
+  config_ = load_study_config_text(json_to_yaml(tree_[kStudy]), source_name + " (study)");
+  model_ = sim::parse_morti_model(reader_of(tree_[kModel], source_name + " (model)"));
+  settings_ = parse_rollout_settings(reader_of(tree_[kSettings], source_name + " (rollout_settings)"));
+  settings_.entrain_s = config_.entrain_s;
+  settings_.eval_s = config_.eval_s;
+  base_parameters_ = parse_parameters(reader_of(tree_[kBaseParameters], source_name + " (base_parameters)"));
+}
+
+std::string StudySpec::to_study_yaml() const {
+  nlohmann::json file = tree_[kStudy];
+  file[kModel] = tree_[kModel];
+  file[kSettings] = tree_[kSettings];
+  file[kBaseParameters] = tree_[kBaseParameters];
+  return fmt::format("# study spec {} (objective version {}): resubmitting this file gives the same spec\n{}",
+                     sha256_, objective_version_, json_to_yaml(file));
+}
+
+}  // namespace cpgmatch::study
