@@ -1,5 +1,12 @@
 #include "cpgmatch/text.hpp"
 
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/errors.hpp"
+
 #include <fmt/format.h>
 
 namespace cpgmatch {
@@ -42,6 +49,14 @@ std::optional<std::string> name_problem(std::string_view name, std::size_t max_b
     if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7F) return "holds a control character";
   }
   return std::nullopt;
+}
+
+std::string read_text_file(const std::string& path, const std::string& what) {
+  std::ifstream in(path);
+  if (!in) throw InputError(fmt::format("{}: cannot read '{}'", what, path));
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
 }
 
 }  // namespace cpgmatch

@@ -18,6 +18,7 @@
 #include "cpgmatch/study/study_config.hpp"
 #include "commands.hpp"
 #include "cpgmatch/study/study_spec.hpp"
+#include "cpgmatch/text.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "service_flags.hpp"
 #include "study_client.hpp"
@@ -31,14 +32,6 @@ volatile std::sig_atomic_t g_interrupted = 0;
 
 std::string num(const json& v, const char* format = "{:.4g}") {
   return v.is_null() ? std::string("-") : fmt::format(fmt::runtime(format), v.get<double>());
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(fmt::format("--config: cannot read '{}'", path));
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
 }
 
 client::StudyClient connect(const ServiceFlags& f, bool trials = false) {
@@ -132,7 +125,7 @@ void add_study_service_commands(CLI::App* study) {
     cmd->add_flag("--quiet", o->quiet, "no progress output");
     add_service_flags(cmd, o->service, "operator");
     cmd->callback([o] {
-      const std::string text = read_file(o->config);
+      const std::string text = read_text_file(o->config, "--config");
       // Checked here first, with the same rules as the service: a bad file exits 2 at once, naming the
       // field and line, without waiting for an optimizer (which would refuse it the same way).
       (void)study::StudySpec::resolve(text, o->config, study::SpecDefaults::shipped());

@@ -6,9 +6,7 @@
 //   cpgmatch rerun --store PATH --study ID --trial N [--json]
 //       re-runs a stored trial from the store alone (spec, parameters, seed) and prints the stored and the
 //       recomputed cost; for a simulated trial they are equal to the bit
-#include <fstream>
 #include <iostream>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -17,19 +15,12 @@
 #include "cpgmatch/analysis/stored_study_trials.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/study/spec_rollout.hpp"
+#include "cpgmatch/text.hpp"
 #include "study_analysis.hpp"
 
 namespace cpgmatch::cli {
 
 namespace {
-
-std::string read_text_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(fmt::format("{}: cannot open file", path));
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
 
 const study::StoredTrial& find_trial(const study::StoredStudy& stored, int trial_id) {
   for (const auto& t : stored.trials) {
@@ -69,7 +60,7 @@ void add_spec_commands(CLI::App& app, CLI::App* study) {
     cmd->add_flag("--json", o->json, "the canonical JSON tree with its hash instead");
     cmd->callback([o] {
       const study::StudySpec spec =
-          study::StudySpec::resolve(read_text_file(o->config), o->config, study::SpecDefaults::shipped());
+          study::StudySpec::resolve(read_text_file(o->config, "--config"), o->config, study::SpecDefaults::shipped());
       print_spec(spec, "resolved from " + o->config, o->json, "");
     });
   }

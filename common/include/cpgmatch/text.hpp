@@ -16,4 +16,8 @@ bool is_valid_utf8(std::string_view text);
 // holding control characters), or nothing when it is.
 std::optional<std::string> name_problem(std::string_view name, std::size_t max_bytes);
 
+// A whole text file; InputError "<what>: cannot read '<path>'" when it cannot be opened (what: the flag or
+// field that named it, or the path again).
+std::string read_text_file(const std::string& path, const std::string& what);
+
 }  // namespace cpgmatch

@@ -4,13 +4,12 @@
 
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
-#include <sstream>
 
 #include <fmt/format.h>
 
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/text.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 
 namespace cpgmatch::study {
@@ -32,14 +31,6 @@ std::string sha256_hex(const std::string& text) {
   std::string hex;
   for (unsigned int i = 0; i < length; ++i) hex += fmt::format("{:02x}", digest[i]);
   return hex;
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(fmt::format("{}: cannot open file", path));
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
 }
 
 nlohmann::json scalar_to_json(const YAML::Node& node) {
@@ -144,7 +135,7 @@ void merge_overrides(nlohmann::json& target, const YamlReader& overrides) {
 }
 
 nlohmann::json default_tree(const std::string& path) {
-  const YamlReader r = YamlReader::from_string(read_file(path), path);
+  const YamlReader r = YamlReader::from_string(read_text_file(path, path), path);
   nlohmann::json j = yaml_to_json(r.node());
   numbers_to_double(j);
   return j;
