@@ -1,5 +1,6 @@
 #include "cpgmatch/contact_sensor.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -26,6 +27,12 @@ void validate(const ContactSensorConfig& c) {
 }
 
 ContactSensor::ContactSensor(ContactSensorConfig config, std::uint64_t seed) : config_(config), rng_(seed) {
+  // The latency spans latency_s x poll_rate_hz polls; twice that and a margin, so that a caller polling a
+  // little faster than configured is still served in order.
+  const double polls_in_flight = std::isfinite(config_.latency_s * config_.poll_rate_hz)
+                                     ? std::max(0.0, config_.latency_s * config_.poll_rate_hz)
+                                     : 0.0;
+  pending_.resize(static_cast<std::size_t>(std::min(2.0 * polls_in_flight, 1e6)) + 4);
   latest_.fill(true);
   raw_.fill(true);
   debounced_.fill(true);
@@ -52,11 +59,20 @@ PerLeg<bool> ContactSensor::poll(double time_s, const PerLeg<double>& normal_for
     const double force = normal_forces_n[leg] + (config_.noise_std_n > 0.0 ? noise(rng_) : 0.0);
     sample.contact[leg] = debounce(leg, time_s, force);
   }
-  pending_.push_back(sample);
+  if (count_ == pending_.size()) {
+    // Polled faster than poll_rate_hz for longer than the ring holds: the oldest sample is released early
+    // rather than allocating more.
+    latest_ = pending_[head_].contact;
+    head_ = (head_ + 1) % pending_.size();
+    --count_;
+  }
+  pending_[(head_ + count_) % pending_.size()] = sample;
+  ++count_;
   // Release every sample that is at least `latency` old; the newest released one is what we report.
-  while (!pending_.empty() && pending_.front().time_s <= time_s - config_.latency_s + 1e-12) {
-    latest_ = pending_.front().contact;
-    pending_.pop_front();
+  while (count_ > 0 && pending_[head_].time_s <= time_s - config_.latency_s + 1e-12) {
+    latest_ = pending_[head_].contact;
+    head_ = (head_ + 1) % pending_.size();
+    --count_;
   }
   return latest_;
 }

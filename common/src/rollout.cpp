@@ -55,6 +55,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   CpgController controller(params, settings.controller);
   ContactSensor sensor(settings.contact_sensor, seed);
   CostRecorder recorder(settings.cost);
+  recorder.reserve(static_cast<std::size_t>((total_steps - eval_start_step) / control_every + 2));
   RolloutResult result;
   result.params = params;
 

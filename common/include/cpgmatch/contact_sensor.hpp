@@ -11,7 +11,7 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
+#include <vector>
 #include <optional>
 #include <random>
 #include <string>
@@ -59,7 +59,11 @@ class ContactSensor {
 
   ContactSensorConfig config_;
   std::mt19937_64 rng_;
-  std::deque<Sample> pending_;
+  // Samples not yet released (the latency), oldest at head_: a ring allocated once at construction, so
+  // polling never touches the heap inside the robot's real-time loop.
+  std::vector<Sample> pending_;
+  std::size_t head_ = 0;
+  std::size_t count_ = 0;
   PerLeg<bool> latest_{};
   PerLeg<bool> raw_{};                // the hysteresis output, before the minimum duration
   PerLeg<bool> debounced_{};

@@ -105,6 +105,8 @@ struct CostSample {
 class CostRecorder {
  public:
   explicit CostRecorder(CostConfig config) : config_(config) {}
+  // Room for this many samples, taken before a rollout's loop so that add() never allocates inside it.
+  void reserve(std::size_t samples) { samples_.reserve(samples); }
   void add(const CostSample& sample) { samples_.push_back(sample); }
   std::size_t size() const { return samples_.size(); }
 

@@ -1,0 +1,142 @@
+// The real-time loop allocates nothing once the plant is active: a rollout's control loop (controller,
+// feedback, contact sensing, cost recording, and the CAN plant's command and receive path) runs on the
+// robot's SCHED_FIFO thread, where a call into the heap can take a lock or page in memory and miss a 2-ms
+// deadline. Checked with a counting global allocator around every step of a real rollout on the CAN
+// plant, over the udp bus backend (like socketcan, it neither allocates nor locks; the in-process virtual
+// bus of the unit tests does both), with a robot answering on the device side.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <thread>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include "cpgmatch/can/can_bus.hpp"
+#include "cpgmatch/robot/can_plant.hpp"
+#include "cpgmatch/robot/robot_config.hpp"
+#include "cpgmatch/robot/robot_device.hpp"
+#include "cpgmatch/rollout.hpp"
+
+namespace {
+
+// Counts allocations made by the thread that set `counting` (the rollout's), nowhere else.
+std::atomic<long> g_allocations{0};
+thread_local bool t_counting = false;
+
+}  // namespace
+
+void* operator new(std::size_t size) {
+  if (t_counting) g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace cpgmatch::robot {
+namespace {
+
+// Wraps the plant the rollout drives: allocations are counted from the first command (the loop has begun,
+// the plant is active) to the last step; what run_rollout does before and after its loop is not counted.
+class AllocationWatch final : public Plant {
+ public:
+  explicit AllocationWatch(Plant& inner) : inner_(inner) {}
+  void command(const PerLeg<JointCommand>& c) override {
+    if (!started_) {
+      started_ = true;
+      t_counting = true;
+      at_start_ = g_allocations.load();
+    }
+    inner_.command(c);
+  }
+  void advance(double dt_s) override {
+    inner_.advance(dt_s);
+    if (started_) in_loop_ = g_allocations.load() - at_start_;  // up to and including this step
+  }
+  PlantState state() const override { return inner_.state(); }
+  double time_step_s() const override { return inner_.time_step_s(); }
+  std::optional<std::string> fault() const override { return inner_.fault(); }
+  long allocations_in_loop() const { return in_loop_; }
+  void stop() { t_counting = false; }
+
+ private:
+  Plant& inner_;
+  bool started_ = false;
+  long at_start_ = 0;
+  long in_loop_ = 0;
+};
+
+// Answers every command and sends sensor readings, as Morti's motor drivers and sensor boards do.
+class AnsweringRobot {
+ public:
+  AnsweringRobot(const RobotConfig& config, const std::string& bus_name)
+      : bus_(can::open_can_bus(bus_name, can::BusRole::kDevice)), device_(config, *bus_), thread_([this] { run(); }) {}
+  ~AnsweringRobot() {
+    stop_ = true;
+    thread_.join();
+  }
+
+ private:
+  void run() {
+    std::int64_t next_sensors = 0;
+    while (!stop_) {
+      const RobotDevice::Received got = device_.receive(std::chrono::microseconds(200));
+      PlantState s;
+      s.trunk.height_m = 0.28;
+      for (auto& leg : s.legs) leg.foot_normal_force_n = 10.0;
+      device_.update(s, 0.0);
+      if (got.event == RobotDevice::Event::kCommand || got.event == RobotDevice::Event::kEnable) device_.reply(got.joint);
+      const auto now = std::chrono::steady_clock::now().time_since_epoch().count();
+      if (now >= next_sensors) {
+        device_.send_sensors();
+        next_sensors = now + 2'000'000;
+      }
+    }
+  }
+  std::unique_ptr<can::CanBus> bus_;
+  RobotDevice device_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// A UDP port on loopback that was free a moment ago (the robot side binds it next).
+int free_udp_port() {
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+  socklen_t len = sizeof(a);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  ::close(fd);
+  return ntohs(a.sin_port);
+}
+
+TEST(RealtimeLoop, ARolloutOnTheCanPlantAllocatesNothingOnceActive) {
+  RobotConfig config = load_robot_config(default_robot_config_path());
+  config.safety.max_consecutive_overruns = 100;  // this shared machine may deschedule the loop
+  config.safety.feedback_timeout_s = 0.5;
+  const std::string uri = "udp:127.0.0.1:" + std::to_string(free_udp_port());
+  AnsweringRobot robot(config, uri);
+  auto bus = can::open_can_bus(uri);
+  CanPlant plant(config, *bus, CanPlantOptions{0.2, false});
+  RolloutSettings settings;
+  settings.entrain_s = 0.5;
+  settings.eval_s = 0.5;
+  ASSERT_EQ(plant.prepare(settings.entrain_s + settings.eval_s), std::nullopt);  // activation: may allocate
+  AllocationWatch watch(plant);
+  const RolloutResult result = run_rollout(watch, CpgParameters{}, settings, 1);
+  watch.stop();
+  plant.finish();
+  ASSERT_FALSE(plant.fault_ended_rollout()) << plant.fault().value_or("");
+  EXPECT_NEAR(result.sim_time_s, 1.0, 1e-9);
+  EXPECT_EQ(watch.allocations_in_loop(), 0) << "heap allocations inside the real-time loop";
+}
+
+}  // namespace
+}  // namespace cpgmatch::robot
