@@ -5,6 +5,8 @@
 #include <fstream>
 #include <memory>
 #include <numbers>
+#include <optional>
+#include <string>
 
 #include <fmt/format.h>
 
@@ -25,6 +27,39 @@ int divider(double base_rate_hz, double rate_hz, const char* what) {
 
 bool finite_state(const PlantState& s) {
   return std::isfinite(s.trunk.x_m) && std::isfinite(s.trunk.height_m) && std::isfinite(s.trunk.pitch_rad);
+}
+
+// Rates no 4-kg legged body reaches, falling included: a trunk tipping over under gravity turns at a few
+// rad/s (sqrt(g / 0.28 m) ~ 6 rad/s from standing) and falls at under 3 m/s from its height; a foot strike
+// jolts it far less. A state that moves faster than these between two control ticks is the integrator
+// blowing up (an explicit damper too stiff for the step, say), not a gait: it must not be scored as a fall.
+constexpr double kMaxPlausiblePitchRate_rad_s = 100.0;
+constexpr double kMaxPlausibleTrunkSpeed_m_s = 30.0;
+
+struct TimedTrunk {
+  double time_s = -1.0;  // < 0: none yet
+  TrunkState trunk;
+};
+
+// Why a state is not a physical one (non-finite, or reached from the previous tick impossibly fast).
+std::optional<std::string> impossible_motion(const TimedTrunk& previous, const PlantState& s) {
+  if (!finite_state(s)) {
+    return fmt::format("non-finite trunk state (x {}, height {}, pitch {})", s.trunk.x_m, s.trunk.height_m,
+                       s.trunk.pitch_rad);
+  }
+  const double dt = s.time_s - previous.time_s;
+  if (previous.time_s < 0.0 || !(dt > 0.0)) return std::nullopt;
+  const double pitch_rate = std::abs(s.trunk.pitch_rad - previous.trunk.pitch_rad) / dt;
+  const double speed = std::hypot(s.trunk.x_m - previous.trunk.x_m, s.trunk.height_m - previous.trunk.height_m) / dt;
+  if (pitch_rate > kMaxPlausiblePitchRate_rad_s) {
+    return fmt::format("trunk pitch moved {:.3f} rad in {:.1f} ms ({:.0f} rad/s; a body of this size turns at most a "
+                       "few rad/s)",
+                       s.trunk.pitch_rad - previous.trunk.pitch_rad, dt * 1e3, pitch_rate);
+  }
+  if (speed > kMaxPlausibleTrunkSpeed_m_s) {
+    return fmt::format("trunk moved {:.3f} m in {:.1f} ms ({:.0f} m/s)", speed * dt, dt * 1e3, speed);
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -66,6 +101,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   long tracking_samples = 0;
   const double start_height = plant.state().trunk.height_m;
   double ended_at_s = -1.0;  // when a fall, a fault or a divergence ended the rollout early
+  TimedTrunk previous_trunk;  // the trunk at the previous control tick
   for (long step = 0; step < total_steps; ++step) {
     const bool poll = step % contact_every == 0;
     const bool control = step % control_every == 0;
@@ -84,14 +120,13 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
           ended_at_s = state.time_s;
           break;
         }
-        if (!finite_state(state)) {
+        if (const auto why = impossible_motion(previous_trunk, state)) {
           result.outcome = RolloutOutcome::kDiverged;
-          result.outcome_message = fmt::format(
-              "simulation diverged at t = {:.3f} s: non-finite trunk state (x {}, height {}, pitch {})", state.time_s,
-              state.trunk.x_m, state.trunk.height_m, state.trunk.pitch_rad);
+          result.outcome_message = fmt::format("state diverged at t = {:.3f} s: {}", state.time_s, *why);
           ended_at_s = state.time_s;
           break;
         }
+        previous_trunk = {state.time_s, state.trunk};
         const bool fell = std::abs(state.trunk.pitch_rad) > settings.cost.fall_max_abs_pitch_rad ||
                           state.trunk.height_m < std::min(settings.cost.fall_min_height_m, 0.5 * start_height);
         if (fell) {

@@ -57,6 +57,22 @@ TEST(Physics, StandingRobotStaysUpOnItsSprings) {
   EXPECT_LT(std::abs(final_x), 0.05);
 }
 
+// An ODE world that blows up is not a gait that fell. The knee's damper is applied explicitly each 1-ms
+// step; c h / I far above 2 makes it unstable (here c = 1e4 N m s/rad against the shank's inertia). The
+// rollout must end as diverged within milliseconds, with the reason, and the matched trot on the same
+// world with the shipped damper must not.
+TEST(Physics, AWorldThatBlowsUpIsADivergenceNotAFall) {
+  SimRolloutJob job = job_with("matched-trot.yaml", "flat", 1.0, 1.0);
+  job.model.knee_spring.damping_nm_s_per_rad = 1e4;
+  const RolloutResult blown = run_sim_rollout(job);
+  EXPECT_EQ(blown.outcome, RolloutOutcome::kDiverged) << to_string(blown.outcome) << " " << blown.outcome_message;
+  EXPECT_FALSE(blown.fell);
+  EXPECT_LT(blown.sim_time_s, 0.1);
+  EXPECT_NE(blown.outcome_message.find("diverged"), std::string::npos) << blown.outcome_message;
+  const RolloutResult sane = run_sim_rollout(job_with("matched-trot.yaml", "flat", 1.0, 1.0));
+  EXPECT_EQ(sane.outcome, RolloutOutcome::kCompleted) << sane.outcome_message;
+}
+
 TEST(Physics, MatchedTrotWalksForwardFor20SecondsWithoutFalling) {
   const RolloutResult r = run_sim_rollout(job_with("matched-trot.yaml", "flat", 10.0, 10.0));
   EXPECT_FALSE(r.fell);

@@ -13,7 +13,7 @@ namespace {
 // A body that stands still at a given height and pitch; after `event_at_s` it faults, blows up or tips.
 class ScriptedPlant final : public Plant {
  public:
-  enum class Event { kNone, kFault, kNonFinite, kTip };
+  enum class Event { kNone, kFault, kNonFinite, kTip, kJump };
   ScriptedPlant(Event event, double event_at_s) : event_(event), event_at_s_(event_at_s) {}
   void command(const PerLeg<JointCommand>&) override {}
   void advance(double dt_s) override { t_ += dt_s; }
@@ -24,7 +24,8 @@ class ScriptedPlant final : public Plant {
     s.trunk.x_m = 0.01 * t_;
     for (auto& leg : s.legs) leg.foot_normal_force_n = 10.0;
     if (t_ >= event_at_s_ && event_ == Event::kNonFinite) s.trunk.pitch_rad = std::numeric_limits<double>::quiet_NaN();
-    if (t_ >= event_at_s_ && event_ == Event::kTip) s.trunk.pitch_rad = 1.2;
+    if (t_ >= event_at_s_ && event_ == Event::kTip) s.trunk.pitch_rad = 0.002 * (t_ - event_at_s_) * 1000.0;  // 2 rad/s
+    if (t_ >= event_at_s_ && event_ == Event::kJump) s.trunk.pitch_rad = 0.5;  // 0.5 rad within one 2-ms tick
     return s;
   }
   double time_step_s() const override { return 0.001; }
@@ -64,6 +65,13 @@ TEST(RolloutOutcome, ANonFiniteStateIsADivergenceNotAFall) {
   EXPECT_FALSE(r.fell);
   EXPECT_TRUE(std::isfinite(r.cost));  // a placeholder that keeps every report finite
   EXPECT_STREQ(to_string(r.outcome), "diverged");
+}
+
+TEST(RolloutOutcome, AFiniteStateThatMovesImpossiblyFastIsADivergence) {
+  const RolloutResult r = run(ScriptedPlant::Event::kJump);
+  EXPECT_EQ(r.outcome, RolloutOutcome::kDiverged);
+  EXPECT_NE(r.outcome_message.find("rad/s"), std::string::npos) << r.outcome_message;
+  EXPECT_FALSE(r.fell);
 }
 
 TEST(RolloutOutcome, TippingOverIsAFallAndAQuietRolloutCompletes) {
