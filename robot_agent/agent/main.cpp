@@ -31,6 +31,7 @@
 #include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
@@ -60,6 +61,7 @@ struct Options {
   bool localhost_only = false;
   bool no_realtime = false;
   bool lockstep = false;
+  bool insecure = false;
   double heartbeat_s = 0.5;
 };
 
@@ -300,6 +302,9 @@ int main(int argc, char** argv) {
                "with cpgmatch-robot-emulator --lockstep only: wait for every reply, even past a deadline "
                "(needs an emulator_only robot YAML)");
   app.add_flag("--run-once", o.run_once, "run one rollout without DDS and print it");
+  app.add_flag("--insecure", o.insecure,
+               "join the domain without DDS-Security: anyone who reaches it can send this robot rollouts and "
+               "release its emergency stop (default: refuse to start without --keystore)");
   app.add_option("--params", o.params_path, "--run-once: parameter YAML (default: configs/params/default.yaml)");
   app.add_option("--entrain", o.entrain_s, "--run-once: entrainment seconds (default: the settings')");
   app.add_option("--eval", o.eval_s, "--run-once: evaluation seconds (default: the settings')");
@@ -336,6 +341,20 @@ int main(int argc, char** argv) {
         char host[256] = "host";
         gethostname(host, sizeof(host) - 1);
         o.id = runtime::resolve_worker_id(o.id, fmt::format("{}-robot", host));  // with --keystore: its CN
+      }
+      // A robot moves on what arrives over DDS: without authentication and permissions anyone on the
+      // domain could drive it or release its emergency stop. Secure is the default; insecure is said aloud.
+      if (cpgmatch::dds::selected_enclave().empty()) {
+        if (!o.insecure) {
+          throw InputError(
+              "--keystore: a robot agent needs DDS-Security (a keystore from deploy/make-study-pki.sh, e.g. "
+              "`make-study-pki.sh KEYSTORE morti:worker` then --keystore KEYSTORE --enclave morti); without it anyone "
+              "on the domain can send this robot rollouts and release its emergency stop. Pass --insecure to run "
+              "without it anyway (a bench with no network, an emulator)");
+        }
+        spdlog::warn("INSECURE: no DDS-Security (--insecure): any participant on domain {} can send this robot rollouts "
+                     "and release its emergency stop",
+                     o.domain);
       }
       if (o.id.size() > 63) throw InputError(fmt::format("--id: at most 63 characters, got {}", o.id.size()));
       if (o.id.find('\'') != std::string::npos) throw InputError("--id must not contain a quote");

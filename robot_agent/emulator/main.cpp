@@ -11,6 +11,7 @@
 // A rollout starts when the motors are enabled after all were off: the robot is put back on its feet
 // (a fresh world), as an operator would. While every motor is off the robot hangs in its rig (no
 // physics), so it cannot collapse between rollouts.
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -46,6 +47,7 @@ struct Options {
   DeviceImperfections imperfections;
   double latency_ms = 0.0;
   double extra_friction_nm = 0.0;
+  double driver_timeout_ms = 100.0;  // the motor drivers' own command watchdog (RobotDevice::enforce_command_timeout)
 };
 
 // Dry friction added to every hip gearbox and knee bearing: a robot that is stiffer than its model.
@@ -132,6 +134,17 @@ class Emulator {
     return got;
   }
 
+  // The drivers' command watchdog: motors that stopped hearing the controller go to the safe state on
+  // their own, as real drivers do, and the moment is logged (Unix time, for the tests).
+  void enforce_driver_watchdog(double timeout_ms) {
+    const int made_safe = device_.enforce_command_timeout(monotonic_ns(), std::llround(timeout_ms * 1e6));
+    if (made_safe == 0) return;
+    const double unix_s = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    std::fprintf(stderr, "emulator: driver watchdog: %d motor(s) without a command for %.0f ms, to the safe state at unix %.6f s\n",
+                 made_safe, timeout_ms, unix_s);
+    log_safety_transitions();
+  }
+
   void step_physics() {
     const double dt = plant_->time_step_s();
     plant_->command(device_.joint_commands());
@@ -151,6 +164,9 @@ class Emulator {
         device_.send_sensors();
         device_.clear_commanded();
       }
+      // Lockstep waits for the controller by design, and its agent allows 0.5 s between replies on a
+      // loaded machine: the drivers' watchdog waits at least a second here.
+      enforce_driver_watchdog(std::max(options_.driver_timeout_ms, 1000.0));
       device_.flush();
     }
     return kExitOk;
@@ -174,6 +190,7 @@ class Emulator {
         }
         device_.flush();
       }
+      enforce_driver_watchdog(options_.driver_timeout_ms);
       bool passed = false;
       timer.wait(passed);
       if (any_enabled()) step_physics();  // all motors off: the robot hangs in its rig
@@ -218,6 +235,11 @@ int main(int argc, char** argv) {
   app.add_option("--backlash", o.imperfections.backlash_rad, "gear play between encoder and joint, rad (total)")->check(CLI::Range(0.0, 0.5));
   app.add_option("--extra-friction", o.extra_friction_nm, "dry friction added to every hip gearbox and knee bearing, N m")
       ->check(CLI::Range(0.0, 5.0));
+  app.add_option("--driver-timeout-ms", o.driver_timeout_ms,
+                 "the motor drivers' command watchdog: an enabled motor without a command this long goes to the "
+                 "safe state by itself, ms (lockstep: at least 1000)")
+      ->check(CLI::Range(1.0, 10000.0))
+      ->capture_default_str();
   runtime::add_version_flag(app, "cpgmatch-robot-emulator");
   try {
     app.parse(argc, argv);

@@ -22,7 +22,7 @@ for exe in cpgmatch-robot-agent cpgmatch-robot-emulator; do
 done
 
 # ---- bad DDS flags: exit 2 naming the flag, before the agent joins a domain ------------------------------
-A=("$AGENT" --can udp:127.0.0.1:1 --domain "$DOMAIN" --localhost-only --id flags)
+A=("$AGENT" --can udp:127.0.0.1:1 --domain "$DOMAIN" --localhost-only --id flags --insecure)
 expect_exit 2 "--dds-profile: 'no-such-profile' is neither local, cluster nor an XML profiles file" "${A[@]}" --dds-profile no-such-profile
 expect_exit 2 "--dds-profile: the profile makes this process a client of discovery servers but names none" "${A[@]}" --dds-profile cluster
 expect_exit 2 "--discovery-server: 'nowhere' is not a discovery server list" "${A[@]}" --discovery-server nowhere
@@ -34,6 +34,10 @@ KS=$WORK/keystore
 "$PKI" "$KS" morti:worker >>"$WORK/pki.log" 2>&1 || fail "make-study-pki.sh morti:worker: $(cat "$WORK/pki.log")"
 expect_exit 2 "--keystore: $KS/enclaves/nobody/identity_ca.cert.pem is missing" "${A[@]}" --keystore "$KS" --enclave nobody
 expect_exit 2 "--enclave: '../morti' is not an enclave name" "${A[@]}" --keystore "$KS" --enclave ../morti
+# Secure by default: no keystore, no start (exit 2 naming --keystore and --insecure), before the bus opens.
+SECURE_ONLY=("$AGENT" --can udp:127.0.0.1:1 --domain "$DOMAIN" --localhost-only --id flags)
+expect_exit 2 "--keystore: a robot agent needs DDS-Security" "${SECURE_ONLY[@]}"
+expect_exit 2 "Pass --insecure to run" "${SECURE_ONLY[@]}"
 # --run-once uses no DDS: its flags are not needed there, and the bus is the only thing it opens.
 expect_exit 2 "unknown scheme 'tcp'" "$AGENT" --can tcp:1.2.3.4:5 --run-once --dds-profile no-such-profile
 
@@ -60,13 +64,14 @@ start_discovery_server
 CLUSTER=(--dds-profile cluster --discovery-server "127.0.0.1:$DS_PORT")
 "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --store "$WORK/cluster.db" "${CLUSTER[@]}" >>"$WORK/optimizer-cluster.log" 2>&1 &
 OPT_PID=$!; PIDS+=("$OPT_PID")
-start_agent morti-cluster --dds-profile "$ROOT/deploy/fastdds/cluster.xml" --discovery-server "127.0.0.1:$DS_PORT"
+start_agent morti-cluster --insecure --dds-profile "$ROOT/deploy/fastdds/cluster.xml" --discovery-server "127.0.0.1:$DS_PORT"
 out=$("$BIN/cpgmatch" study submit --config "$WORK/s.yaml" --wait --json --quiet --timeout 60 --domain "$DOMAIN" "${CLUSTER[@]}" \
       2>>"$WORK/cli.log") || fail "cluster study: submit --wait failed: $out"
 [[ $(json_field "$out" completed) == 2 ]] || fail "cluster study: $out"
 n=$(hardware_reports_from "$WORK/cluster.db" morti-cluster)
 [[ $n == 2 ]] || fail "cluster study: expected 2 ok hardware reports from morti-cluster, got $n"
 grep -q "Participant Type:   SERVER" "$WORK/discovery.log" || fail "the discovery server did not start: $(cat "$WORK/discovery.log")"
+grep -q "INSECURE: no DDS-Security (--insecure)" "$WORK/agent-morti-cluster.log" || fail "--insecure is not said aloud"
 stop_agent
 kill -TERM "$OPT_PID" "$DS_PID"; wait "$OPT_PID" "$DS_PID" || true
 

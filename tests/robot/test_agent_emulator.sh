@@ -93,4 +93,34 @@ timeout 10 tail --pid="$AGENT_PID" -f /dev/null; wait "$AGENT_PID"; rc=$?
 set -e
 out=$(cat "$WORK/term.json")
 [[ $rc == 1 && $(json_field "$out" error) == *"emergency stop: SIGINT/SIGTERM"* ]] || fail "SIGTERM: rc $rc: $out"
-echo "PASS agent and emulator"
+# The motor drivers' own watchdog: the agent killed (-9) mid-rollout sends nothing more, not even the safe
+# state; the emulator's drivers put every motor in the safe state by themselves within their timeout.
+PORT=$(free_udp_port)
+"$BIN/cpgmatch-robot-emulator" --can "udp:127.0.0.1:$PORT" --driver-timeout-ms 100 >"$WORK/drivers.log" 2>&1 &
+PIDS+=("$!")
+sleep 0.3
+"$AGENT" --can "udp:127.0.0.1:$PORT" --robot "$WORK/robot.yaml" --run-once --entrain 20 --eval 5 --json \
+  >/dev/null 2>>"$WORK/agent.log" &
+AGENT_PID=$!; PIDS+=("$AGENT_PID")
+wait_until 20 grep -q "rollout 1 starts" "$WORK/drivers.log" || fail "the rollout did not start"
+sleep 2
+since_kill() { grep -q "$1" "$WORK/drivers.log"; }
+since_kill "every motor safe" && fail "motors safe before the agent died"
+killed_at=$(python3 -c 'import time; print(time.time())')
+kill -9 "$AGENT_PID"
+wait_until 5 since_kill "driver watchdog" || fail "the drivers did not notice the silent controller: $(tail -3 "$WORK/drivers.log")"
+wait_until 5 since_kill "every motor safe" || fail "the motors were not made safe after the controller died"
+ms=$(python3 - "$killed_at" "$WORK/drivers.log" <<'PY'
+import re, sys
+killed = float(sys.argv[1])
+for line in open(sys.argv[2]):
+    m = re.search(r"driver watchdog: .* at unix ([0-9.]+) s", line)
+    if m and float(m.group(1)) >= killed:
+        print(f"{(float(m.group(1)) - killed) * 1000:.0f}")
+        break
+PY
+)
+[[ -n $ms ]] || fail "no driver watchdog line after the kill"
+# 100 ms timeout plus at most one physics step; this shared machine may stall a process ~100 ms.
+python3 -c "import sys; sys.exit(0 if $ms <= 400 else 1)" || fail "the drivers took $ms ms to make the motors safe"
+echo "PASS agent and emulator (drivers' own watchdog: motors safe $ms ms after the controller was killed)"

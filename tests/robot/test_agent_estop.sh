@@ -36,7 +36,7 @@ sed -i 's/^rollout: .*/rollout: {entrain_s: 8, eval_s: 1}/' "$WORK/s.yaml"
 echo "explore_on: hardware" >>"$WORK/s.yaml"
 start_emulator "udp:127.0.0.1:$PORT" --lockstep
 start_optimizer "$WORK/s.db"
-"$BIN/cpgmatch-robot-agent" --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \
+"$BIN/cpgmatch-robot-agent" --insecure --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \
   --robot "$WORK/robot.yaml" --no-realtime >>"$WORK/agent.log" 2>&1 &
 AGENT_PID=$!; PIDS+=("$AGENT_PID")
 id=$(cli study submit --config "$WORK/s.yaml" --timeout 30) || fail "submit failed"

@@ -10,7 +10,7 @@ write_study "$WORK/s.yaml" agent-reports-released 3 3
 echo "explore_on: hardware" >>"$WORK/s.yaml"  # the agent is the only worker
 start_emulator "udp:127.0.0.1:$PORT" --lockstep
 start_optimizer "$WORK/s.db"
-"$BIN/cpgmatch-robot-agent" --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \
+"$BIN/cpgmatch-robot-agent" --insecure --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \
   --robot "$WORK/robot.yaml" --no-realtime >>"$WORK/agent.log" 2>&1 &
 AGENT_PID=$!; PIDS+=("$AGENT_PID")
 out=$(cli study submit --config "$WORK/s.yaml" --wait --json --quiet --timeout 90) || fail "submit --wait failed: $out"

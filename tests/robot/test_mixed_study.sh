@@ -22,7 +22,7 @@ st=$(state_json 1)
 [[ $(json_field "$st" completed) == 6 ]] || fail "exploration not complete while waiting: $st"
 n=$(sql "$WORK/s.db" "select count(*) from trials where phase='validation' and status='in_flight'")
 [[ $n == 2 ]] || fail "expected 2 stored validation sets waiting, got $n"
-"$BIN/cpgmatch-robot-agent" --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \
+"$BIN/cpgmatch-robot-agent" --insecure --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \
   --robot "$WORK/robot.yaml" --no-realtime >>"$WORK/agent.log" 2>&1 &
 AGENT_PID=$!; PIDS+=("$AGENT_PID")
 sleep 1

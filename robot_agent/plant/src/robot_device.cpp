@@ -37,6 +37,7 @@ RobotDevice::Received RobotDevice::receive(std::chrono::nanoseconds timeout) {
     switch (received->kind) {
       case MitReceived::Kind::kEnterMotorMode:
         enabled_[j] = true;
+        last_command_ns_[j] = monotonic_ns();  // the watchdog counts from entering motor mode
         result.event = Event::kEnable;
         break;
       case MitReceived::Kind::kExitMotorMode:
@@ -54,6 +55,7 @@ RobotDevice::Received RobotDevice::receive(std::chrono::nanoseconds timeout) {
         const MotorCommand& c = received->command;
         last_command_[j] = c;
         last_command_ns_[j] = monotonic_ns();
+        timed_out_[j] = false;
         commanded_[j] = true;
         const double target = joint.to_joint_position(c.position_rad + zero_[j]);
         if (hip) {
@@ -70,6 +72,21 @@ RobotDevice::Received RobotDevice::receive(std::chrono::nanoseconds timeout) {
     return result;
   }
   return result;
+}
+
+int RobotDevice::enforce_command_timeout(std::int64_t now_ns, std::int64_t timeout_ns) {
+  int made_safe = 0;
+  for (int j = 0; j < kNumJoints; ++j) {
+    if (!enabled_[j] || timed_out_[j] || now_ns - last_command_ns_[j] < timeout_ns) continue;
+    MotorCommand safe;  // kp = 0, feed-forward 0: the motor only damps
+    safe.position_rad = last_command_[j].position_rad;
+    safe.kd_nm_s_per_rad = joints_[j]->to_motor_kd(config_.safety.safe_damping_nm_s_per_rad);
+    last_command_[j] = safe;
+    if (j % 2 == 0) commands_[j / 2].hip_passive = true;  // the body model's hip has no pure-damping mode
+    timed_out_[j] = true;
+    ++made_safe;
+  }
+  return made_safe;
 }
 
 bool RobotDevice::all_commanded() const {

@@ -53,6 +53,13 @@ class RobotDevice {
   const MotorCommand& last_command(int joint) const { return last_command_[joint]; }
   std::int64_t last_command_ns(int joint) const { return last_command_ns_[joint]; }
 
+  // The motor driver's own command watchdog, as real drivers have one: an enabled motor that has not been
+  // commanded for `timeout_ns` goes to the safe state by itself (kp = 0, no torque, damping only; a hip is
+  // then passive) and stays there until a new command. A silent controller (crashed, unplugged, its
+  // bus down) never leaves the motors holding their last stiff target. Returns the motors it just made safe.
+  int enforce_command_timeout(std::int64_t now_ns, std::int64_t timeout_ns);
+  bool timed_out(int joint) const { return timed_out_[joint]; }
+
   // New body measurements; joint velocities come from the change since the previous update.
   void update(const PlantState& state, double dt_s);
   void reply(int joint);     // one motor's reply (as after its command)
@@ -72,6 +79,7 @@ class RobotDevice {
   std::array<bool, kNumJoints> commanded_{};
   std::array<MotorCommand, kNumJoints> last_command_{};
   std::array<std::int64_t, kNumJoints> last_command_ns_{};
+  std::array<bool, kNumJoints> timed_out_{};  // made safe by the command watchdog, until the next command
   std::array<double, kNumJoints> zero_{};  // motor position at the last set-zero
   PerLeg<JointCommand> commands_{};
   PlantState state_{};
