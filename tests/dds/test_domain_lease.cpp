@@ -62,3 +62,49 @@ TEST(DomainLease, AnUnusableLockDirectoryIsNamed) {
 
 }  // namespace
 }  // namespace cpgmatch::runtime
+
+// Fast DDS's shared-memory leftovers: segments whose lock file nobody holds belonged to a dead process and
+// are removed; a held lock (a living owner) keeps its segment; unrelated files are never touched.
+#include <fcntl.h>
+#include <sys/file.h>
+
+#include <fstream>
+
+#include "cpgmatch/dds/shm_cleanup.hpp"
+
+namespace {
+
+void touch(const std::filesystem::path& p) { std::ofstream(p) << "x"; }
+
+TEST(ShmCleanup, RemovesTheSegmentsAndPortsOfDeadProcessesOnly) {
+  const auto dir = std::filesystem::temp_directory_path() / ("shm-cleanup-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  for (const char* f : {"fastrtps_0123456789abcdef", "fastrtps_0123456789abcdef_el",   // dead segment
+                        "fastrtps_fedcba9876543210", "fastrtps_fedcba9876543210_el",   // live segment
+                        "fastrtps_port7411", "fastrtps_port7411_el", "sem.fastrtps_port7411_mutex",  // dead port
+                        "fastrtps_notasegment_el", "other_el", "fastrtps_0123456789abcdef.keep"}) {
+    touch(dir / f);
+  }
+  // The living owner: an exclusive flock held on its lock file, as Fast DDS holds it.
+  const int live = ::open((dir / "fastrtps_fedcba9876543210_el").c_str(), O_RDONLY);
+  ASSERT_GE(live, 0);
+  ASSERT_EQ(::flock(live, LOCK_EX | LOCK_NB), 0);
+  const cpgmatch::dds::ShmCleanup c = cpgmatch::dds::remove_dead_shm_segments(dir);
+  EXPECT_EQ(c.segments_removed, 1);
+  EXPECT_EQ(c.ports_removed, 1);
+  EXPECT_EQ(c.in_use, 1);
+  for (const char* gone : {"fastrtps_0123456789abcdef", "fastrtps_0123456789abcdef_el", "fastrtps_port7411",
+                           "fastrtps_port7411_el", "sem.fastrtps_port7411_mutex"}) {
+    EXPECT_FALSE(std::filesystem::exists(dir / gone)) << gone;
+  }
+  for (const char* kept : {"fastrtps_fedcba9876543210", "fastrtps_fedcba9876543210_el", "fastrtps_notasegment_el",
+                           "other_el", "fastrtps_0123456789abcdef.keep"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir / kept)) << kept;
+  }
+  ::close(live);
+  // A folder that does not exist is left alone, quietly.
+  EXPECT_EQ(cpgmatch::dds::remove_dead_shm_segments(dir / "missing").segments_removed, 0);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace

@@ -1,6 +1,7 @@
 #include "cpgmatch/dds/participant.hpp"
 
 #include <algorithm>
+#include <mutex>
 #include <thread>
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
@@ -11,6 +12,7 @@
 
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/profile.hpp"
+#include "cpgmatch/dds/shm_cleanup.hpp"
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch_msgsPubSubTypes.h"
@@ -86,6 +88,18 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
   peer_listener_.on_identity_refused = config.on_identity_refused;
   // StatusMask::none(): the listener takes no data or QoS callbacks from the entities; discovery
   // callbacks are delivered regardless of the mask.
+  if (!config.localhost_only) {
+    // This participant may use Fast DDS's shared memory: first remove what SIGKILLed processes left there
+    // (once per process; a participant restarted beside a zombie port could otherwise stop hearing peers).
+    static std::once_flag cleaned;
+    std::call_once(cleaned, [] {
+      const ShmCleanup c = remove_dead_shm_segments();
+      if (c.segments_removed + c.ports_removed > 0) {
+        fmt::print(stderr, "cpgmatch: removed {} segments and {} ports of dead Fast DDS processes from /dev/shm\n",
+                   c.segments_removed, c.ports_removed);
+      }
+    });
+  }
   participant_ = config.on_peer_discovered || config.track_identities
                      ? factory->create_participant(config.domain, qos, &peer_listener_, fdds::StatusMask::none())
                      : factory->create_participant(config.domain, qos);
