@@ -47,6 +47,13 @@ fs::path fastdds_profiles_dir() {
   return CPGMATCH_SOURCE_FASTDDS_DIR;
 }
 
+fs::path pki_script() {
+  std::error_code ec;
+  const fs::path installed = (executable_dir() / CPGMATCH_BIN_TO_DATA / "make-study-pki.sh").lexically_normal();
+  if (fs::is_regular_file(installed, ec)) return installed;
+  return CPGMATCH_SOURCE_PKI_SCRIPT;
+}
+
 void export_config_dir() {
   // The simulation library reads the folder from this variable (falling back to the source tree it
   // was built from), and child processes inherit it: one place decides for the whole process tree.

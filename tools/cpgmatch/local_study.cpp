@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "child_process.hpp"
+#include "private_keystore.hpp"
 #include "cpgmatch/runtime/domain_lease.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/command_objective.hpp"
@@ -77,6 +78,9 @@ void LocalStudyFlags::add_to(CLI::App& cmd, const std::string& out_help) {
   cmd.add_option("--out", out, out_help);
   cmd.add_option("--jitter", jitter, "re-run the best parameters N times under +-1% jitter (0: skip)");
   cmd.add_flag("--quiet", quiet, "no progress on stderr");
+  cmd.add_flag("--insecure", insecure,
+               "no DDS-Security: any local user can then read and steer the study (default: a private keystore "
+               "made for this run, or $CPGMATCH_KEYSTORE)");
 }
 
 LocalStudyOptions LocalStudyFlags::options() const {
@@ -86,6 +90,7 @@ LocalStudyOptions LocalStudyFlags::options() const {
   o.workers = workers;
   o.out = out;
   o.quiet = quiet;
+  o.insecure = insecure;
   return o;
 }
 
@@ -164,6 +169,32 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
     fmt::print(stderr, "{}optimizer service + {} simulation workers on private DDS domain {}; logs in {}\n",
                opts.progress_label, workers, domain, dir.string());
   }
+  // Private by default: loopback is shared by every user of the machine, so without security any of them
+  // could read the study's states and trials, pause it or forge its results. The keystore lives as long
+  // as the study's services (declared before them: destroyed after they are stopped).
+  std::optional<PrivateKeystore> private_keys;
+  const char* given_keystore = std::getenv("CPGMATCH_KEYSTORE");
+  const bool have_keystore = given_keystore != nullptr && *given_keystore != '\0';
+  if (!have_keystore && !opts.insecure) {
+    private_keys.emplace();
+    setenv("CPGMATCH_KEYSTORE", private_keys->path().c_str(), 1);  // the children and this client use it
+    if (!opts.quiet) {
+      fmt::print(stderr, "{}DDS-Security with a private keystore for this run ({:.1f} s to make; removed at the end)\n",
+                 opts.progress_label, private_keys->make_time_s());
+    }
+  } else if (!have_keystore) {
+    fmt::print(stderr, "{}INSECURE (--insecure): no DDS-Security; any local user can read and steer this study\n",
+               opts.progress_label);
+  }
+  result.secure = have_keystore || private_keys.has_value();
+  // Whatever happens below, the private keystore's variable does not outlive the run (reproduce runs
+  // several studies in one process, each with its own keystore).
+  struct UnsetOnExit {
+    bool active;
+    ~UnsetOnExit() {
+      if (active) unsetenv("CPGMATCH_KEYSTORE");
+    }
+  } unset_keystore{private_keys.has_value()};
   const fs::path bin = fs::path(self_executable()).parent_path();
   const std::string d = std::to_string(domain);
   std::vector<std::unique_ptr<ChildProcess>> children;

@@ -21,6 +21,9 @@ struct LocalStudyOptions {
   std::string store;          // empty: <out>/study.db
   int domain = -1;            // -1: a private one, 150..229 from the pid
   bool quiet = false;
+  // false (default): without $CPGMATCH_KEYSTORE the study makes a private keystore and runs under
+  // DDS-Security (private_keystore.hpp); true: plain DDS on loopback, readable and steerable by any local user.
+  bool insecure = false;
   std::string progress_label; // printed before the progress bar ("replicate 2/5 ")
 };
 
@@ -31,6 +34,7 @@ struct LocalStudyResult {
   int study_id = 0;
   int workers = 0;
   double wall_time_s = 0.0;
+  bool secure = false;                  // ran under DDS-Security (a private or the given keystore)
   nlohmann::json state;                 // the last StudyState seen (to_json)
   std::vector<nlohmann::json> records;  // to_json(TrialRecord), as read over DDS
 };
@@ -42,6 +46,7 @@ struct LocalStudyFlags {
   std::string out;
   int jitter = 12;
   bool quiet = false;
+  bool insecure = false;
 
   void add_to(CLI::App& cmd, const std::string& out_help);
   LocalStudyOptions options() const;  // the study file (or the paper's) with workers, out and quiet set

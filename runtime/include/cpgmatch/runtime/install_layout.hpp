@@ -17,6 +17,10 @@ std::filesystem::path config_dir();
 // <prefix>/share/cpgmatch/fastdds when it exists, else the source tree's deploy/fastdds/.
 std::filesystem::path fastdds_profiles_dir();
 
+// <prefix>/share/cpgmatch/make-study-pki.sh when installed, else the source tree's deploy/make-study-pki.sh:
+// what `study run` makes its private keystore with.
+std::filesystem::path pki_script();
+
 // Puts config_dir() into $CPGMATCH_CONFIG_DIR, where the simulation's config loaders and every child
 // process (rollout slots, the services `study run` starts) read it. Call once, first thing in main().
 void export_config_dir();
