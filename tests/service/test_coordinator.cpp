@@ -1214,3 +1214,34 @@ TEST_F(CoordinatorTest, CandidatesCarryTheStudysSpecAndItIsPublishedBeforeThem) 
 
 }  // namespace
 }  // namespace cpgmatch::service
+
+namespace cpgmatch::service {
+namespace {
+
+TEST_F(CoordinatorTest, AnOversizedStudyFileIsRefusedBeforeAnythingParsesIt) {
+  // 700k keys, about 12 MB: what once took the service to 800 MB.
+  std::string huge = "name: huge\n";
+  huge.reserve(12'000'000);
+  for (int i = 0; huge.size() < 12'000'000; ++i) huge += "k" + std::to_string(i) + ": 1\n";
+  msg::StudyCommand c;
+  c.correlation_id(1);
+  c.client_id("test");
+  c.kind(msg::COMMAND_SUBMIT);
+  c.study_yaml(huge);
+  c.source_name("huge.yaml");
+  coordinator_->handle_command(c, now_);
+  ASSERT_EQ(out_.replies.size(), 1u);
+  EXPECT_FALSE(out_.replies[0].ok());
+  const std::string message = out_.replies[0].message().to_string();
+  EXPECT_NE(message.find("huge.yaml"), std::string::npos) << message;
+  EXPECT_NE(message.find(std::to_string(study::kMaxStudyFileBytes)), std::string::npos) << message;
+  EXPECT_EQ(coordinator_->studies(), 0);
+  // Just under the limit is still a study file like any other (here a bad one, refused by its parser).
+  c.correlation_id(2);
+  c.study_yaml("name: fine\nbudget: 0\n" + std::string(1000, '#'));
+  coordinator_->handle_command(c, now_);
+  EXPECT_NE(out_.replies[1].message().to_string().find("budget"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cpgmatch::service

@@ -126,6 +126,10 @@ void add_study_service_commands(CLI::App* study) {
     add_service_flags(cmd, o->service, "operator");
     cmd->callback([o] {
       const std::string text = read_text_file(o->config, "--config");
+      if (text.size() > study::kMaxStudyFileBytes) {
+        throw InputError(fmt::format("--config {}: {} bytes, more than a study file may have ({} bytes)", o->config,
+                                     text.size(), study::kMaxStudyFileBytes));
+      }
       // Checked here first, with the same rules as the service: a bad file exits 2 at once, naming the
       // field and line, without waiting for an optimizer (which would refuse it the same way).
       (void)study::StudySpec::resolve(text, o->config, study::SpecDefaults::shipped());

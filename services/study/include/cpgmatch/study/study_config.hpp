@@ -15,6 +15,7 @@
 //   validation: {hardware_sets: 10, spread: 0.10}   # optional: the hardware validation phase
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "cpgmatch/bo/optimizer.hpp"
@@ -53,6 +54,11 @@ struct StudyConfig {
   bool lockstep_given = false;  // the file says lockstep (study run sets it to its worker count otherwise)
   double effective_lease_s() const { return lease_s > 0.0 ? lease_s : 60.0 + 3.0 * (entrain_s + eval_s); }
 };
+
+// The largest study file a service takes (bytes), checked before anything parses it. A study with every
+// model, settings and parameter value written out (`study show`) is about 10 kB; this leaves room for
+// comments and long parameter lists, not for a file built to exhaust the service's memory.
+inline constexpr std::size_t kMaxStudyFileBytes = 256 * 1024;
 
 // Throws InputError naming the file, line and field.
 StudyConfig load_study_config(const std::string& path);
