@@ -153,5 +153,19 @@ TEST_F(Keystore, ASwappedCertificateKeyGovernanceOrRevocationListIsNamed) {
   }
 }
 
+TEST_F(Keystore, AKeystoreMadeBeforeRevocationGetsARevocationListInEveryEnclaveWhenExtended) {
+  // What a keystore looked like before make-study-pki.sh knew CRLs: no crl.pem anywhere, no CRL settings.
+  fs::remove(ks_ / "public" / "crl.pem");
+  fs::remove(ks_ / "private" / "crlnumber");
+  for (const std::string enclave : {"optimizer", "worker", "operator", "viewer"}) fs::remove(file("crl.pem", enclave));
+  const std::string strip = "sed -i '/^crlnumber\\|^default_crl_days/d' " + (ks_ / "private" / "ca.cnf").string();
+  ASSERT_EQ(std::system(strip.c_str()), 0);
+  EXPECT_NE(refusal().find("crl.pem is missing"), std::string::npos);
+  make_keystore(ks_, "node12:worker");  // adding an identity brings the CRL to the enclaves made before it
+  for (const std::string enclave : {"optimizer", "worker", "operator", "viewer", "node12"}) {
+    EXPECT_EQ(refusal(enclave), "") << enclave;
+  }
+}
+
 }  // namespace
 }  // namespace cpgmatch::dds
