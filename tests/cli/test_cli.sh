@@ -81,6 +81,8 @@ import json; r=json.load(open('$tmp/o.json')); assert r['evaluations']==14, r; a
 check "non-number output is a failed evaluation, not a crash" python3 -c "
 import json; r=json.load(open('$tmp/f.json')); assert r['failed']==3 and r['evaluations']==3, r"
 check "failure is logged" grep -q "not a finite number" "$tmp/f.err"
+check "every evaluation failed: exit 1, saying so" expect_exit 1 "every evaluation failed (3 of 3)" \
+  "$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo notanumber" --budget 3 --initial 2 --quiet
 # Seeds are whole numbers in [0, 2^64 - 1]: -1 and a longer number both ran as seed 2^64 - 1.
 check "optimize seed negative" expect_exit 2 "\-\-seed" "$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo 1" --budget 2 --seed -1
 check "optimize seed overflow" expect_exit 2 "\-\-seed" "$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo 1" --budget 2 \
@@ -90,6 +92,14 @@ check "optimize initial beyond budget" expect_exit 2 "\-\-initial 100 is more th
   "$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo 1" --budget 6 --initial 100
 check "optimize default initial with a small budget" \
   sh -c '"$0" optimize --space "$1" --objective-cmd "echo 1" --budget 2 --quiet >/dev/null' "$bin" "$tmp/q.yaml"
+# A log-transformed objective returning a cost <= 0: that evaluation failed (named, with its cost), the run goes on.
+cat >"$tmp/signed.sh" <<'OBJ'
+#!/bin/sh
+python3 -c 'import json,sys; print(json.load(sys.stdin)["x"])'
+OBJ
+chmod +x "$tmp/signed.sh"
+"$bin" optimize --space "$tmp/q.yaml" --objective-cmd "$tmp/signed.sh" --cost-transform log --budget 8 --initial 6 --seed 1 \
+  --json >"$tmp/log.json" 2>"$tmp/log.err"
 check "log transform: a cost <= 0 is a failed evaluation, not bad input" test $? -eq 0
 check "log transform: the run went on, positive costs counted" python3 -c "
 import json; r=json.load(open('$tmp/log.json')); t=r['trials']
