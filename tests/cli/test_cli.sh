@@ -130,6 +130,8 @@ check "optimizer bad --log-level" expect_exit 2 "log-level" "$bindir/cpgmatch-op
 check "CPGMATCH_DOMAIN not a number" expect_exit 2 "CPGMATCH_DOMAIN" env CPGMATCH_DOMAIN=abc "$bin" status
 check "submit a missing file" expect_exit 2 "nope.yaml" "$bin" study submit --config "$tmp/nope.yaml" --domain 90
 check "status without an optimizer" expect_exit 1 "no optimizer" "$bin" status --domain 90 --localhost-only --timeout 1
+check "status --study without an optimizer: exit 1, not bad input" expect_exit 1 "no optimizer on DDS domain 90 (none heard within 1 s)" \
+  "$bin" status --study 1 --domain 90 --localhost-only --timeout 1
 check "run-one with a bad request" expect_exit 2 "request" sh -c "echo '{\"params\": {}}' | '$bindir/cpgmatch-sim-worker' --run-one"
 
 # A small local study runs end to end and writes its results.
