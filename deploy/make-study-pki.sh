@@ -10,7 +10,8 @@
 #                            governance.p7s          |  --keystore KEYSTORE --enclave <name> loads
 #                            cert.pem key.pem        |  (PKI-DH authentication, access control,
 #                            permissions.{xml,p7s}  /   AES-GCM encryption)
-#                            crl.pem                    a copy of the CA's CRL (Fast DDS PKI-DH identity_crl)
+#                            crl.pem                    a copy of the CA's CRL (Fast DDS PKI-DH identity_crl;
+#                                                       required: every run copies it into enclaves lacking it)
 #
 #   make-study-pki.sh KEYSTORE                       CA + the enclaves optimizer, worker, operator, viewer
 #   make-study-pki.sh KEYSTORE NAME:ROLE ...         more enclaves, e.g. node12:worker
@@ -131,6 +132,11 @@ if [[ ! -f $KEYSTORE/public/crl.pem ]]; then
   openssl ca -config "$CA_CNF" -gencrl -out "$KEYSTORE/public/crl.pem" 2>"$KEYSTORE/private/ca.log" ||
     { cat "$KEYSTORE/private/ca.log" >&2; exit 1; }
 fi
+# Every enclave needs it: cpgmatch refuses an enclave without crl.pem (revocation must not be off by
+# accident). Enclaves made before revocation existed get the current CRL here, when the keystore is extended.
+for dir in "$KEYSTORE"/enclaves/*/; do
+  if [[ -f $dir/cert.pem && ! -e $dir/crl.pem ]]; then cp "$KEYSTORE/public/crl.pem" "$dir/crl.pem"; fi
+done
 
 # The CA signs governance and permissions itself (S/MIME), hence digitalSignature in its key usage.
 sign() { openssl smime -sign -text -in "$1" -out "$2" -signer "$CA_CERT" -inkey "$CA_KEY"; }

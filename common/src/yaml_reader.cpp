@@ -1,31 +1,160 @@
 #include "cpgmatch/yaml_reader.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <string_view>
+#include <vector>
 
 #include <fmt/format.h>
+#include <yaml-cpp/eventhandler.h>
 
 #include "cpgmatch/errors.hpp"
 
 namespace cpgmatch {
 
+namespace {
+
+std::string limit_text() { return fmt::format("1 MiB ({} bytes)", kMaxYamlBytes); }
+
+// A line that is a document marker: "---" or "..." at column 0, alone or followed by a blank.
+bool is_marker(std::string_view line, std::string_view marker) {
+  return line.substr(0, 3) == marker && (line.size() == 3 || line[3] == ' ' || line[3] == '\t' || line[3] == '\r');
+}
+
+// A line that carries content: not blank, not only a comment, not a directive ("%YAML 1.2").
+bool has_content(std::string_view line) {
+  const std::size_t first = line.find_first_not_of(" \t\r");
+  return first != std::string_view::npos && line[first] != '#' && !(first == 0 && line[0] == '%');
+}
+
+// The 0-based line where a second document begins: a "---" after content or after "...", or content after
+// "...". Only called once yaml-cpp has found two documents; -1 if the lines do not show where.
+int second_document_line(const std::string& text) {
+  bool content = false, ended = false;
+  std::size_t start = 0;
+  for (int line = 0; start < text.size(); ++line) {
+    const std::size_t end = std::min(text.find('\n', start), text.size());
+    const std::string_view l(text.data() + start, end - start);
+    start = end + 1;
+    if (is_marker(l, "---")) {
+      if (content || ended) return line;
+      content = has_content(l.substr(3));  // "--- {a: 1}" starts a document with content on its line
+    } else if (is_marker(l, "...")) {
+      ended = true;
+    } else if (has_content(l)) {
+      if (ended) return line;
+      content = true;
+    }
+  }
+  return -1;
+}
+
+// The text with an explicit document end ("...") on a line of its own appended. yaml-cpp 0.7 accepts a
+// quoted string that is never closed when the text ends with a line break (its scanner leaves the scalar
+// at the end of the input without the "illegal EOF in scalar" it raises mid-line), taking the rest of the
+// file as the string. A document end cannot be inside a quoted string, so with it yaml-cpp always stops
+// there with "illegal document indicator in scalar". The marker ends a document without adding anything
+// to it: a file that already ends with "..." reads the same.
+std::string with_document_end(const std::string& text) {
+  return text + (text.empty() || text.back() == '\n' ? "" : "\n") + "...\n";
+}
+
+// Remembers where the last quoted scalar began: yaml-cpp tags a quoted (or block) scalar "!", a plain one "?".
+class LastQuotedScalar : public YAML::EventHandler {
+ public:
+  YAML::Mark mark = YAML::Mark::null_mark();
+  void OnScalar(const YAML::Mark& at, const std::string& tag, YAML::anchor_t, const std::string&) override {
+    if (tag == "!") mark = at;
+  }
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+// Where the quoted string that runs into line `error_line` (0-based) opens. yaml-cpp only says where it met
+// a document marker; the text up to that line, parsed without the marker, hands over the open string as its
+// last quoted scalar (the very leniency described above, put to use on the error path only) before any
+// error of what encloses it (an unclosed flow mapping). -1 if it cannot tell.
+int unterminated_quote_line(const std::string& text, int error_line) {
+  std::size_t cut = 0;
+  for (int line = 0; line < error_line && cut < text.size(); ++line) {
+    cut = std::min(text.find('\n', cut), text.size() - 1) + 1;
+  }
+  std::istringstream prefix(text.substr(0, cut) + (cut > 0 && text[cut - 1] == '\n' ? "" : "\n"));
+  LastQuotedScalar last;
+  try {
+    YAML::Parser parser(prefix);
+    while (parser.HandleNextDocument(last)) {
+    }
+  } catch (const YAML::Exception&) {
+    // expected when the open string sits inside a flow collection: what was seen before counts
+  }
+  return last.mark.line;
+}
+
+// The number of lines of `text` (a last line without a line break counts).
+int line_count(const std::string& text) {
+  return static_cast<int>(std::count(text.begin(), text.end(), '\n')) + (text.empty() || text.back() == '\n' ? 0 : 1);
+}
+
+// The InputError for a yaml-cpp parse error of `text`. An error yaml-cpp finds at the appended "..." is at
+// the end of the text: its last line is named, never a line the file does not have.
+InputError parse_error(const std::string& text, const std::string& source, const YAML::Exception& e) {
+  const auto at = [&](int line) {
+    return fmt::format("{}:{}", source, std::clamp(line + 1, 1, std::max(1, line_count(text))));
+  };
+  if (e.msg == YAML::ErrorMsg::DOC_IN_SCALAR) {
+    const int open = unterminated_quote_line(text, e.mark.line);
+    return InputError(fmt::format("{}: malformed YAML: a quoted string opened on this line is never closed",
+                                  at(open >= 0 ? open : e.mark.line)));
+  }
+  return InputError(fmt::format("{}: malformed YAML: {}", at(e.mark.line), e.msg));
+}
+
+}  // namespace
+
 YamlReader YamlReader::from_file(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(fmt::format("{}: cannot open file", path));
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return from_string(buffer.str(), path);
+  // One byte past the limit is enough to refuse a larger file without reading it all.
+  std::string text(kMaxYamlBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (in.bad()) throw InputError(fmt::format("{}: cannot read file", path));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxYamlBytes) {
+    throw InputError(fmt::format("{}: larger than {}, the most cpgmatch reads from a YAML text; not parsed", path,
+                                 limit_text()));
+  }
+  return from_string(text, path);
 }
 
 YamlReader YamlReader::from_string(const std::string& text, const std::string& source_name) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}: malformed YAML: {}", source_name, e.mark.line + 1, e.msg));
+  if (text.size() > kMaxYamlBytes) {
+    throw InputError(fmt::format("{}: larger than {}, the most cpgmatch reads from a YAML text ({} bytes); not parsed",
+                                 source_name, limit_text(), text.size()));
   }
+  std::vector<YAML::Node> documents;
+  try {
+    documents = YAML::LoadAll(with_document_end(text));
+  } catch (const YAML::Exception& e) {
+    throw parse_error(text, source_name, e);
+  }
+  if (documents.size() > 1) {
+    // yaml-cpp's Load() would keep the first document and drop the rest without a word.
+    const int line = second_document_line(text);
+    throw InputError(fmt::format("{}: a second YAML document ('---', or content after '...'); a cpgmatch YAML "
+                                 "text holds one document",
+                                 line >= 0 ? fmt::format("{}:{}", source_name, line + 1) : source_name));
+  }
+  const YAML::Node root = documents.empty() ? YAML::Node() : documents.front();
   if (!root.IsMap()) {
     throw InputError(fmt::format("{}: expected a YAML mapping at the top level", source_name));
   }

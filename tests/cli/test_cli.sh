@@ -35,6 +35,21 @@ check "low >= high" expect_exit 2 "space.yaml:2" "$bin" optimize --space "$tmp/s
 check "missing objective" expect_exit 2 "objective" "$bin" optimize --space "$tmp/space.yaml" --budget 2
 printf 'name: s\nbudget: 0\n' >"$tmp/study.yaml"
 check "bad study budget" expect_exit 2 "budget" "$bin" study run --config "$tmp/study.yaml" --out "$tmp/s"
+# YAML that yaml-cpp read silently as something else: a second document, an unclosed quote. A study file is
+# checked before anything starts (submit: before an optimizer is looked for; reproduce: before its first run).
+printf 'name: s\nbudget: 6\n---\nbudget: 600\n' >"$tmp/two-docs.yaml"
+check "second YAML document names file:line" expect_exit 2 "two-docs.yaml:3: a second YAML document" \
+  "$bin" study submit --config "$tmp/two-docs.yaml" --domain 90 --localhost-only --timeout 1
+printf 'name: s\n...\nbudget: 600\n' >"$tmp/after-end.yaml"
+check "content after ... names file:line" expect_exit 2 "after-end.yaml:3: a second YAML document" \
+  "$bin" reproduce --config "$tmp/after-end.yaml" --out "$tmp/r-after-end" --seeds 1
+printf 'name: "s\nbudget: 6\n' >"$tmp/open-quote.yaml"
+check "unclosed quote names file:line" expect_exit 2 "open-quote.yaml:1: malformed YAML: a quoted string" \
+  "$bin" study submit --config "$tmp/open-quote.yaml" --domain 90 --localhost-only --timeout 1
+check "unclosed quote, reproduce" expect_exit 2 "open-quote.yaml:1" "$bin" reproduce --config "$tmp/open-quote.yaml" \
+  --out "$tmp/r-open-quote" --seeds 1
+python3 -c "print('name: big'); print('# ' + 'x' * (1 << 20))" >"$tmp/big.yaml"
+check "a study file over 1 MiB" expect_exit 2 "big.yaml: larger than 1 MiB" "$bin" study run --config "$tmp/big.yaml" --out "$tmp/s"
 
 # rollout --json: exactly one JSON object with the documented fields; the trace is written.
 "$bin" rollout --params "$(dirname "$0")/../../configs/params/matched-trot.yaml" --entrain 1 --eval 2 --json --trace "$tmp/t.csv" >"$tmp/r.json"
@@ -66,6 +81,32 @@ import json; r=json.load(open('$tmp/o.json')); assert r['evaluations']==14, r; a
 check "non-number output is a failed evaluation, not a crash" python3 -c "
 import json; r=json.load(open('$tmp/f.json')); assert r['failed']==3 and r['evaluations']==3, r"
 check "failure is logged" grep -q "not a finite number" "$tmp/f.err"
+check "every evaluation failed: exit 1, saying so" expect_exit 1 "every evaluation failed (3 of 3)" \
+  "$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo notanumber" --budget 3 --initial 2 --quiet
+# Seeds are whole numbers in [0, 2^64 - 1]: -1 and a longer number both ran as seed 2^64 - 1.
+check "optimize seed negative" expect_exit 2 "\-\-seed" "$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo 1" --budget 2 --seed -1
+check "optimize seed overflow" expect_exit 2 "\-\-seed" "$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo 1" --budget 2 \
+  --seed 18446744073709551616
+check "rollout seed overflow" expect_exit 2 "\-\-seed" "$bin" rollout --seed 99999999999999999999
+check "optimize initial beyond budget" expect_exit 2 "\-\-initial 100 is more than \-\-budget 6" \
+  "$bin" optimize --space "$tmp/q.yaml" --objective-cmd "echo 1" --budget 6 --initial 100
+check "optimize default initial with a small budget" \
+  sh -c '"$0" optimize --space "$1" --objective-cmd "echo 1" --budget 2 --quiet >/dev/null' "$bin" "$tmp/q.yaml"
+# A log-transformed objective returning a cost <= 0: that evaluation failed (named, with its cost), the run goes on.
+cat >"$tmp/signed.sh" <<'OBJ'
+#!/bin/sh
+python3 -c 'import json,sys; print(json.load(sys.stdin)["x"])'
+OBJ
+chmod +x "$tmp/signed.sh"
+"$bin" optimize --space "$tmp/q.yaml" --objective-cmd "$tmp/signed.sh" --cost-transform log --budget 8 --initial 6 --seed 1 \
+  --json >"$tmp/log.json" 2>"$tmp/log.err"
+check "log transform: a cost <= 0 is a failed evaluation, not bad input" test $? -eq 0
+check "log transform: the run went on, positive costs counted" python3 -c "
+import json; r=json.load(open('$tmp/log.json')); t=r['trials']
+assert r['evaluations']==8 and 0 < r['failed'] < 8, r
+assert all((x['ok'] and x['params']['x'] > 0) or (not x['ok'] and x['params']['x'] <= 0) for x in t), t
+assert all('is not > 0' in x['error'] for x in t if not x['ok']), t"
+check "log transform: the warning names the cost" grep -q "evaluation [0-9]* failed: cost -[0-9.]* is not > 0" "$tmp/log.err"
 
 # bench-optimizer prints the documented fields.
 "$bin" bench-optimizer --function branin --budget 20 --initial 5 --seed 0 --quiet --json >"$tmp/b.json"
@@ -89,6 +130,8 @@ check "optimizer bad --log-level" expect_exit 2 "log-level" "$bindir/cpgmatch-op
 check "CPGMATCH_DOMAIN not a number" expect_exit 2 "CPGMATCH_DOMAIN" env CPGMATCH_DOMAIN=abc "$bin" status
 check "submit a missing file" expect_exit 2 "nope.yaml" "$bin" study submit --config "$tmp/nope.yaml" --domain 90
 check "status without an optimizer" expect_exit 1 "no optimizer" "$bin" status --domain 90 --localhost-only --timeout 1
+check "status --study without an optimizer: exit 1, not bad input" expect_exit 1 "no optimizer on DDS domain 90 (none heard within 1 s)" \
+  "$bin" status --study 1 --domain 90 --localhost-only --timeout 1
 check "run-one with a bad request" expect_exit 2 "request" sh -c "echo '{\"params\": {}}' | '$bindir/cpgmatch-sim-worker' --run-one"
 
 # A small local study runs end to end and writes its results.

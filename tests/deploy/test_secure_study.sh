@@ -2,8 +2,9 @@
 # DDS-Security end to end, with a keystore made by deploy/make-study-pki.sh: a study completes with every
 # process authenticated and its topics encrypted; a participant without a certificate reads nothing and
 # its injected reports never reach the optimizer; roles are enforced (a viewer reads but cannot submit, a
-# worker identity cannot create the optimizer's writers); a missing file or an expired certificate stops a
-# program with exit 2 naming the file. Prints the wall time of one study plain and secure.
+# worker identity cannot create the optimizer's writers); a missing file (crl.pem too), another enclave's
+# permissions or an expired certificate stops a program with exit 2 naming the file. Prints the wall time of
+# one study plain and secure.
 #   BIN=build/bin DOMAIN=51 INJECT=build/bin/inject_malformed test_secure_study.sh
 source "$(dirname "$0")/../integration/lib.sh"
 INJECT=${INJECT:?INJECT must point at inject_malformed}
@@ -13,7 +14,7 @@ KS=$WORK/keystore
 "$PKI" "$KS" --expired old-worker:worker >>"$WORK/pki.log" 2>&1 || fail "make-study-pki.sh --expired"
 for f in public/ca.cert.pem enclaves/governance.p7s; do [[ -s $KS/$f ]] || fail "keystore lacks $f"; done
 for e in optimizer worker operator viewer; do
-  for f in identity_ca.cert.pem cert.pem key.pem permissions_ca.cert.pem governance.p7s permissions.p7s; do
+  for f in identity_ca.cert.pem cert.pem key.pem crl.pem permissions_ca.cert.pem governance.p7s permissions.p7s; do
     [[ -s $KS/enclaves/$e/$f ]] || fail "enclave $e lacks $f"
   done
 done
@@ -29,6 +30,12 @@ expect_exit 2 "old-worker/cert.pem has expired" "$BIN/cpgmatch-sim-worker" --dom
 cp -r "$KS" "$WORK/broken" && rm "$WORK/broken/enclaves/worker/key.pem"
 expect_exit 2 "enclaves/worker/key.pem is missing" "$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" --localhost-only --keystore "$WORK/broken"
 expect_exit 2 "--keystore" "$BIN/cpgmatch-optimizer" --domain "$DOMAIN" --localhost-only --keystore "$WORK/nowhere"
+# Fail closed: without crl.pem revocation was silently off; another enclave's permissions.p7s exited 1 unnamed.
+cp -r "$KS" "$WORK/no-crl" && rm "$WORK/no-crl/enclaves/worker/crl.pem"
+expect_exit 2 "enclaves/worker/crl.pem is missing" "$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" --localhost-only --keystore "$WORK/no-crl"
+cp -r "$KS" "$WORK/swapped" && cp "$KS/enclaves/viewer/permissions.p7s" "$WORK/swapped/enclaves/worker/permissions.p7s"
+expect_exit 2 "enclaves/worker/permissions.p7s grants 'CN=viewer'" "$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" \
+  --localhost-only --keystore "$WORK/swapped"
 
 # ---- plain, then secure: the same study ------------------------------------------------------------------
 write_study "$WORK/s.yaml" secure 24 8
@@ -73,6 +80,7 @@ CPGMATCH_KEYSTORE=$KS "$BIN/cpgmatch" study run --config "$WORK/tiny.yaml" --wor
   >/dev/null 2>"$WORK/study-run.log" || fail "study run with CPGMATCH_KEYSTORE: $(tail -n 3 "$WORK/study-run.log")"
 [[ $(sql "$WORK/run/study.db" "select count(*) from trials where status='done'") == 3 ]] || fail "secure study run: not 3 trials"
 echo "PASS DDS-Security: secure study of 24 done; no-certificate reader and injector hear nothing; viewer reads," \
-     "cannot submit; worker identity cannot write optimizer topics; expired and incomplete keystores exit 2;" \
+     "cannot submit; worker identity cannot write optimizer topics; expired, incomplete (no key, no CRL) and" \
+     "swapped-permissions keystores exit 2 naming the file;" \
      "study run with CPGMATCH_KEYSTORE works." \
      "Wall time of the same study (2 slots, 0.5+0.5 s rollouts): plain ${plain_s} s, secure ${secure_s} s"

@@ -1241,6 +1241,21 @@ TEST_F(CoordinatorTest, AnOversizedStudyFileIsRefusedBeforeAnythingParsesIt) {
   c.study_yaml("name: fine\nbudget: 0\n" + std::string(1000, '#'));
   coordinator_->handle_command(c, now_);
   EXPECT_NE(out_.replies[1].message().to_string().find("budget"), std::string::npos);
+TEST_F(CoordinatorTest, AStudysElapsedTimeIsNeverNegativeAfterTheWallClockIsSteppedBack) {
+  submit(4, 4);
+  worker("a", 1);
+  coordinator_->tick(now_ += 0.2);
+  wall_ += 30.0;
+  answer_all();  // a report: the state changes and is published again
+  coordinator_->tick(now_ += 0.2);
+  ASSERT_FALSE(out_.states.empty());
+  EXPECT_DOUBLE_EQ(out_.states.back().elapsed_s(), 30.0);  // the study's age on the (fake) wall clock
+  const std::size_t published = out_.states.size();
+  wall_ -= 3600.0;  // NTP or a user sets the clock an hour back, to before the study was created
+  answer_all();
+  coordinator_->tick(now_ += 0.2);
+  ASSERT_GT(out_.states.size(), published);
+  EXPECT_EQ(out_.states.back().elapsed_s(), 0.0);
 }
 
 }  // namespace

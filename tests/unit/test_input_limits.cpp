@@ -104,6 +104,82 @@ TEST(InputLimits, EveryNumberInTheRolloutSettingsHasARange) {
   EXPECT_EQ(settings_error("controller: {feedback: {reflex_duration_s: 1.0, reflex_knee_flexion_rad: 0}}\n"), "");
 }
 
+// A study text of exactly `bytes` bytes: a name, then a comment filling the rest, then `tail`.
+std::string padded_study(std::size_t bytes, const std::string& tail) {
+  std::string text = "name: a\n#";
+  text += std::string(bytes - text.size() - tail.size() - 1, 'x');
+  return text + "\n" + tail;
+}
+
+TEST(InputLimits, AYamlTextOverOneMebibyteIsRefusedBeforeParsingNamingSourceAndLimit) {
+  EXPECT_EQ(study_error(padded_study(kMaxYamlBytes, "")), "");  // the limit itself is allowed
+  // One byte more is refused, and before parsing: the unclosed quote at its end is not what is reported.
+  const std::string e = study_error(padded_study(kMaxYamlBytes + 1, "seed: \"1"));
+  EXPECT_NE(e.find("s.yaml"), std::string::npos) << e;
+  EXPECT_NE(e.find("1 MiB (1048576 bytes)"), std::string::npos) << e;
+  EXPECT_EQ(e.find("quoted"), std::string::npos) << e;
+  // A file is not even read past the limit.
+  const std::string path = ::testing::TempDir() + "/huge.yaml";
+  std::ofstream(path) << padded_study(4 * kMaxYamlBytes, "");
+  try {
+    (void)YamlReader::from_file(path);
+    ADD_FAILURE() << "a 4 MiB file loaded";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find(path + ": larger than 1 MiB"), std::string::npos) << error.what();
+  }
+}
+
+TEST(InputLimits, ASecondYamlDocumentIsRefusedWithItsLine) {
+  // yaml-cpp's Load() kept the first document and dropped the rest without a word.
+  const struct {
+    const char* yaml;
+    const char* where;
+  } bad[] = {
+      {"name: a\n---\nname: b\n", "s.yaml:2"},
+      {"name: a\n---\n", "s.yaml:2"},
+      {"---\nname: a\nbudget: 20\n--- # again\nbudget: 30\n", "s.yaml:4"},
+      {"name: a\n...\nbudget: 30\n", "s.yaml:3"},
+      {"name: a\n...\n---\nname: b\n", "s.yaml:3"},
+  };
+  for (const auto& b : bad) {
+    const std::string e = study_error(b.yaml);
+    EXPECT_NE(e.find(b.where), std::string::npos) << b.yaml << " -> " << e;
+    EXPECT_NE(e.find("second YAML document"), std::string::npos) << b.yaml << " -> " << e;
+  }
+  // One document, with its optional markers, a directive or a comment after its end, still loads.
+  EXPECT_EQ(study_error("---\nname: a\n...\n"), "");
+  EXPECT_EQ(study_error("%YAML 1.2\n---\nname: a\n"), "");
+  EXPECT_EQ(study_error("name: a\n...\n# the end\n"), "");
+  EXPECT_EQ(study_error("name: a\n..."), "");
+}
+
+TEST(InputLimits, AnUnterminatedQuotedStringIsAnErrorNamingTheLineItOpensOn) {
+  // yaml-cpp 0.7 took the rest of the file as the string when the file ended with a line break.
+  const struct {
+    const char* yaml;
+    const char* where;
+  } bad[] = {
+      {"name: \"abc\nbudget: 10\n", "s.yaml:1"},
+      {"budget: 10\nname: 'abc\n\n", "s.yaml:2"},
+      {"budget: 10\nname: \"abc", "s.yaml:2"},                  // no final line break
+      {"budget: 10\nname: \"abc\n---\nseed: 1\n", "s.yaml:2"},  // a document marker inside it
+      {"name: a\nparameters:\n  - {name: x, low: 0, high: 1}\n  - {name: 'y, low: 0, high: 1}\n", "s.yaml:4"},
+  };
+  for (const auto& b : bad) {
+    const std::string e = study_error(b.yaml);
+    EXPECT_NE(e.find(b.where), std::string::npos) << b.yaml << " -> " << e;
+    EXPECT_NE(e.find("never closed"), std::string::npos) << b.yaml << " -> " << e;
+  }
+  // Quoted strings that close, over lines too, and a plain one with an apostrophe, load.
+  EXPECT_EQ(study_error("name: \"a\n  b\"\nacquisition: 'ei'\n"), "");
+  EXPECT_EQ(study_error("name: it's\n"), "");
+}
+
+TEST(InputLimits, OtherYamlSyntaxErrorsStillNameALineOfTheText) {
+  const std::string e = study_error("name: a\nfixed: {frequency: 1\n");  // a flow mapping never closed
+  EXPECT_NE(e.find("s.yaml:2: malformed YAML"), std::string::npos) << e;
+}
+
 TEST(Text, Utf8Validation) {
   EXPECT_TRUE(is_valid_utf8("plain"));
   EXPECT_TRUE(is_valid_utf8("\xc3\xbc\xe2\x82\xac\xf0\x9f\x90\x95"));  // ü € dog

@@ -1,6 +1,7 @@
 // `cpgmatch optimize`: Bayesian optimisation of any black box given as a shell command, or of the
 // simulated CPG rollout (`--objective rollout`).
 #include <iostream>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -63,6 +64,7 @@ void add_optimize_command(CLI::App& app) {
     nlohmann::json evaluations = nlohmann::json::array();
     double best = std::numeric_limits<double>::infinity();
     int failed = 0;
+    std::string first_failure;
     const Evaluator evaluate = command_evaluator(space, command, opts->timeout_s);
     run_optimization(optimizer, opts->flags.budget, opts->flags.batch, evaluate, [&](const Trial& t) {
       const nlohmann::json params = named_point_json(space, t.x);
@@ -71,7 +73,7 @@ void add_optimize_command(CLI::App& app) {
         best = std::min(best, t.outcome.cost);
         note = fmt::format("cost {:.6g}", t.outcome.cost);
       } else {
-        ++failed;
+        if (failed++ == 0) first_failure = t.outcome.message;
         note = fmt::format("FAILED: {}", t.outcome.message);
         if (!opts->flags.quiet) fmt::print(stderr, "evaluation {} failed: {} (params {})\n", t.index, t.outcome.message, params.dump());
       }
@@ -94,6 +96,12 @@ void add_optimize_command(CLI::App& app) {
                  evaluations.size(), failed, progress.elapsed_s(), best_params.dump());
     } else {
       fmt::print("no successful evaluation in {} ({} failed)\n", evaluations.size(), failed);
+    }
+    // Nothing was learnt: a script must not take this run for a result (the output above still tells
+    // what was tried). Exit 1, a failed run, not 2: the flags were fine, the objective failed.
+    if (!best_obs) {
+      throw std::runtime_error(fmt::format("every evaluation failed ({} of {}), so there is no result; the first: {}",
+                                           failed, evaluations.size(), first_failure));
     }
   });
 }

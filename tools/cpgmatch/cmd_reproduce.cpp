@@ -12,6 +12,7 @@
 #include "commands.hpp"
 #include "cpgmatch/analysis/plots.hpp"
 #include "cpgmatch/analysis/replicates.hpp"
+#include "cpgmatch/yaml_reader.hpp"
 #include "local_study.hpp"
 #include "study_results.hpp"
 
@@ -22,15 +23,14 @@ namespace fs = std::filesystem;
 namespace {
 
 // The study file with its `seed` (and, so the replicates can be told apart, its name) replaced.
+// Read through YamlReader, the one door for YAML text, not yaml-cpp directly: its checks (size, one document,
+// closed quotes) hold here too, and a missing name is an InputError naming the field, not a yaml-cpp exception.
 std::string with_seed(const std::string& text, const std::string& source, int seed) {
-  YAML::Node node;
-  try {
-    node = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}: {}", source, e.what()));
-  }
+  const YamlReader reader = YamlReader::from_string(text, source);
+  const std::string name = reader.require_string("name");
+  YAML::Node node = reader.node();
   node["seed"] = seed;
-  node["name"] = fmt::format("{}-seed-{}", node["name"].as<std::string>(), seed);
+  node["name"] = fmt::format("{}-seed-{}", name, seed);
   YAML::Emitter out;
   out << node;
   return fmt::format("# {} with seed {} (cpgmatch reproduce)\n{}\n", source, seed, out.c_str());

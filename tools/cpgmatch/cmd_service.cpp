@@ -6,6 +6,7 @@
 //   cpgmatch workers [--json]
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <fstream>
@@ -39,10 +40,25 @@ client::StudyClient connect(const ServiceFlags& f, bool trials = false) {
   return client::StudyClient(f.resolved_domain(), f.localhost_only, trials);
 }
 
-// Waits for an optimizer's state history; a clear error (exit 1) when none is on the domain.
-void require_optimizer(client::StudyClient& c, const ServiceFlags& f) {
-  if (!c.wait_for_optimizer(f.timeout_s)) {
-    throw std::runtime_error(fmt::format("no optimizer on DDS domain {}", f.resolved_domain()));
+// Waits for an optimizer's state history (`settle_s` after it is heard); a clear error (exit 1) when none is
+// heard on the domain: nothing wrong with the command, the service is not there (or not reachable).
+void require_optimizer(client::StudyClient& c, const ServiceFlags& f, double settle_s = 1.0) {
+  if (!c.wait_for_optimizer(f.timeout_s, settle_s)) {
+    throw std::runtime_error(fmt::format("no optimizer on DDS domain {} (none heard within {:g} s)", f.resolved_domain(),
+                                         f.timeout_s));
+  }
+}
+
+// `status --study N`: the optimizer first (none heard: exit 1, as `status`), then the study's state. Only a
+// study the optimizer that answered does not have is bad input (exit 2). Its transient-local history can lag
+// the match, so the study gets the rest of the timeout, and at least a second.
+void require_study(client::StudyClient& c, const ServiceFlags& f, int study_id) {
+  const auto start = std::chrono::steady_clock::now();
+  require_optimizer(c, f, 0.0);
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (!c.wait_for_study(study_id, std::max(1.0, f.timeout_s - waited))) {
+    throw InputError(fmt::format("--study: the optimizer on DDS domain {} has no study {}", f.resolved_domain(),
+                                 study_id));
   }
 }
 
@@ -181,10 +197,7 @@ void add_service_commands(CLI::App& app) {
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
       if (o->study_id >= 0) {
-        if (!c.wait_for_study(o->study_id, o->service.timeout_s)) {
-          throw InputError(fmt::format("--study: no study {} on DDS domain {} (waited {:.0f} s)", o->study_id,
-                                       o->service.resolved_domain(), o->service.timeout_s));
-        }
+        require_study(c, o->service, o->study_id);
       } else {
         require_optimizer(c, o->service);
       }

@@ -2,8 +2,12 @@
 // a rollout could run with `--treadmill nan` and "fall"; these refuse non-finite values as well.
 #pragma once
 
+#include <charconv>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
+#include <system_error>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -28,12 +32,17 @@ inline CLI::Validator finite_in(double low, double high, const std::string& unit
       fmt::format("in [{}, {}] {}", low, high, unit));
 }
 
-// A whole number >= 0 (for seeds: "-1" must not wrap around to 2^64 - 1).
+// A whole number in [0, 2^64 - 1], for seeds: "-1" must not wrap around to 2^64 - 1, nor a longer number be
+// cut down to 2^64 - 1 by the conversion (both were accepted and ran as seed 2^64 - 1).
 inline CLI::Validator whole_non_negative() {
   return CLI::Validator(
       [](std::string& text) -> std::string {
         if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) {
           return fmt::format("'{}' must be a whole number >= 0", text);
+        }
+        std::uint64_t value = 0;
+        if (std::from_chars(text.data(), text.data() + text.size(), value).ec == std::errc::result_out_of_range) {
+          return fmt::format("'{}' is larger than {}", text, std::numeric_limits<std::uint64_t>::max());
         }
         return "";
       },

@@ -29,7 +29,8 @@ nlohmann::json named_point_json(const bo::SearchSpace& space, const Eigen::Vecto
 // Keeps a reference to `space`, which must outlive the evaluator.
 Evaluator command_evaluator(const bo::SearchSpace& space, std::string command, double timeout_s);
 
-// Runs `budget` evaluations, at most `parallel` at a time. Failed evaluations go to tell_failure().
+// Runs `budget` evaluations, at most `parallel` at a time. Failed evaluations go to tell_failure(), and so
+// does a cost <= 0 under a log cost transform (the trial's outcome then says so).
 void run_optimization(bo::BayesianOptimizer& optimizer, int budget, int parallel, const Evaluator& evaluate,
                       const TrialCallback& on_trial);
 

@@ -22,6 +22,9 @@ struct OptimizerFlags {
   void add_to(CLI::App* cmd);
   // Validates and converts; throws InputError naming the flag.
   bo::OptimizerOptions to_options() const;
+
+ private:
+  CLI::Option* initial_flag_ = nullptr;  // to tell an --initial given from the default
 };
 
 }  // namespace cpgmatch::cli

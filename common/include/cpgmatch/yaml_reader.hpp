@@ -4,6 +4,7 @@
 // "FILE:LINE: field 'a.b': <what is wrong>" and an InputError, never a yaml-cpp exception text.
 #pragma once
 
+#include <cstddef>
 #include <functional>
 #include <set>
 #include <string>
@@ -12,11 +13,21 @@
 
 namespace cpgmatch {
 
+// The largest YAML text cpgmatch reads: 1 MiB. Every YAML file it has (study files, search spaces,
+// parameter sets, the model and robot files) is a few kB; yaml-cpp's node tree takes about 70 times its
+// text in memory, and a 12 MB study file of 700k keys held ~800 MB in the optimizer service for good.
+// A larger text is refused before it is parsed.
+inline constexpr std::size_t kMaxYamlBytes = std::size_t{1} << 20;
+
 class YamlReader {
  public:
-  // Parses a file; throws InputError with the file name (and line for syntax errors).
+  // Parses a file (reading at most kMaxYamlBytes + 1 bytes of it); throws InputError with the file name
+  // (and line for syntax errors).
   static YamlReader from_file(const std::string& path);
-  // Parses text; `source_name` stands in for the file name in messages.
+  // Parses text; `source_name` stands in for the file name in messages. The one door for every YAML text
+  // in cpgmatch; it throws InputError naming source (and line) for a text over kMaxYamlBytes (before
+  // parsing), a syntax error, a quoted string that is never closed, a second document (`---`, or anything
+  // after `...`) and a top level that is not a mapping.
   static YamlReader from_string(const std::string& text, const std::string& source_name);
 
   YamlReader(YAML::Node node, std::string source, std::string path);

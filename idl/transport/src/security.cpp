@@ -2,7 +2,6 @@
 
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <memory>
 
 #include <fmt/format.h>
@@ -12,6 +11,7 @@
 #include <openssl/x509.h>
 
 #include "cpgmatch/errors.hpp"
+#include "enclave_check.hpp"
 
 namespace cpgmatch::dds {
 
@@ -21,49 +21,6 @@ namespace {
 
 SecuritySelection g_selected;
 std::string g_selected_cn;
-
-constexpr const char* kEnclaveFiles[] = {"identity_ca.cert.pem", "cert.pem", "key.pem",
-                                         "permissions_ca.cert.pem", "governance.p7s", "permissions.p7s"};
-
-// Fast DDS would refuse an expired certificate too, but only as a log line and a participant that
-// cannot be created; this names the file and its date before anything starts.
-void check_certificate_dates(const fs::path& file) {
-  std::unique_ptr<FILE, int (*)(FILE*)> in(std::fopen(file.c_str(), "r"), &std::fclose);
-  if (!in) throw InputError(fmt::format("--keystore: cannot read {}", file.string()));
-  std::unique_ptr<X509, void (*)(X509*)> cert(PEM_read_X509(in.get(), nullptr, nullptr, nullptr), &X509_free);
-  if (!cert) throw InputError(fmt::format("--keystore: {} is not a PEM certificate", file.string()));
-  if (X509_cmp_current_time(X509_get0_notAfter(cert.get())) <= 0) {
-    throw InputError(fmt::format("--keystore: the certificate {} has expired", file.string()));
-  }
-  if (X509_cmp_current_time(X509_get0_notBefore(cert.get())) >= 0) {
-    throw InputError(fmt::format("--keystore: the certificate {} is not valid yet", file.string()));
-  }
-}
-
-// The enclave's CRL (crl.pem, optional: keystores made before revocation existed have none). Fast DDS
-// checks every peer's certificate against it (PKI-DH identity_crl); an expired CRL would make it refuse
-// every peer, and a CRL that revokes our own certificate would make the participant fail without a word.
-// Both stop the program here instead, naming the file.
-void check_crl(const fs::path& crl_file, const fs::path& cert_file) {
-  std::unique_ptr<FILE, int (*)(FILE*)> in(std::fopen(crl_file.c_str(), "r"), &std::fclose);
-  if (!in) throw InputError(fmt::format("--keystore: cannot read {}", crl_file.string()));
-  std::unique_ptr<X509_CRL, void (*)(X509_CRL*)> crl(PEM_read_X509_CRL(in.get(), nullptr, nullptr, nullptr),
-                                                     &X509_CRL_free);
-  if (!crl) throw InputError(fmt::format("--keystore: {} is not a PEM certificate revocation list", crl_file.string()));
-  if (const ASN1_TIME* next = X509_CRL_get0_nextUpdate(crl.get()); next != nullptr && X509_cmp_current_time(next) <= 0) {
-    throw InputError(fmt::format("--keystore: the revocation list {} has expired (make a fresh one: make-study-pki.sh "
-                                 "KEYSTORE revoke)",
-                                 crl_file.string()));
-  }
-  std::unique_ptr<FILE, int (*)(FILE*)> cert_in(std::fopen(cert_file.c_str(), "r"), &std::fclose);
-  if (!cert_in) throw InputError(fmt::format("--keystore: cannot read {}", cert_file.string()));
-  std::unique_ptr<X509, void (*)(X509*)> cert(PEM_read_X509(cert_in.get(), nullptr, nullptr, nullptr), &X509_free);
-  X509_REVOKED* revoked = nullptr;
-  if (cert && X509_CRL_get0_by_cert(crl.get(), &revoked, cert.get()) == 1) {
-    throw InputError(fmt::format("--keystore: the certificate {} has been revoked ({})", cert_file.string(),
-                                 crl_file.string()));
-  }
-}
 
 std::string file_uri(const fs::path& p) { return "file://" + fs::absolute(p).lexically_normal().string(); }
 
@@ -82,15 +39,7 @@ void select_security(const SecuritySelection& selection) {
       selection.enclave == "..") {
     throw InputError(fmt::format("--enclave: '{}' is not an enclave name", selection.enclave));
   }
-  const fs::path dir = selection.keystore / "enclaves" / selection.enclave;
-  for (const char* name : kEnclaveFiles) {
-    const fs::path file = dir / name;
-    if (!std::ifstream(file)) throw InputError(fmt::format("--keystore: {} is missing", file.string()));
-  }
-  check_certificate_dates(dir / "identity_ca.cert.pem");
-  check_certificate_dates(dir / "cert.pem");
-  if (std::ifstream(dir / "crl.pem")) check_crl(dir / "crl.pem", dir / "cert.pem");
-  g_selected_cn = certificate_common_name(dir / "cert.pem");
+  g_selected_cn = check_enclave(selection.keystore / "enclaves" / selection.enclave);
   g_selected = selection;
 }
 
@@ -168,8 +117,9 @@ void apply_security(eprosima::fastdds::dds::DomainParticipantQos& qos) {
   set("dds.sec.auth.builtin.PKI-DH.identity_certificate", file_uri(dir / "cert.pem"));
   set("dds.sec.auth.builtin.PKI-DH.private_key", file_uri(dir / "key.pem"));
   // Fast DDS 2.9 PKI-DH reads a CRL from this property (PKIDH.cpp, FileProvider::load_crl) and then verifies
-  // every certificate with X509_V_FLAG_CRL_CHECK: a revoked peer fails the handshake.
-  if (std::ifstream(dir / "crl.pem")) set("dds.sec.auth.builtin.PKI-DH.identity_crl", file_uri(dir / "crl.pem"));
+  // every certificate with X509_V_FLAG_CRL_CHECK: a revoked peer fails the handshake. Always given:
+  // select_security() requires the file, so revocation cannot be off by accident.
+  set("dds.sec.auth.builtin.PKI-DH.identity_crl", file_uri(dir / "crl.pem"));
   set("dds.sec.access.plugin", "builtin.Access-Permissions");
   set("dds.sec.access.builtin.Access-Permissions.permissions_ca", file_uri(dir / "permissions_ca.cert.pem"));
   set("dds.sec.access.builtin.Access-Permissions.governance", file_uri(dir / "governance.p7s"));

@@ -1101,7 +1101,9 @@ void Coordinator::publish_state(Study& s, double now_s) {
   st.best_params(dds::to_wire(s.best_params));
   st.best_normalized_torque(s.best_normalized_torque);
   st.best_speed_mps(s.best_speed_mps);
-  st.elapsed_s(wall_now() - s.created_at_s);
+  // Wall time, as created_at_s is (it survives restarts): after the clock is stepped back past a study's
+  // creation, 0 rather than a negative age.
+  st.elapsed_s(std::max(0.0, wall_now() - s.created_at_s));
   const double session = now_s - s.session_start_s;
   st.rollouts_per_s(session > 0.0 ? (s.completed - s.completed_at_session_start) / session : 0.0);
   st.message(s.message);

@@ -17,8 +17,9 @@ struct SecuritySelection {
   std::string enclave;             // KEYSTORE/enclaves/<enclave>/
 };
 
-// Checks the enclave before any participant exists: every file present and readable, certificates not
-// expired (InputError naming the file), then uses it for every participant of this process.
+// Checks the enclave before any participant exists: every file the security plugins read present (crl.pem
+// included), readable and what it should be (check_enclave in enclave_check.hpp; InputError naming the
+// file), then uses it for every participant of this process.
 void select_security(const SecuritySelection& selection);
 
 // The selected enclave's name, empty without security (for error messages).
