@@ -1241,6 +1241,8 @@ TEST_F(CoordinatorTest, AnOversizedStudyFileIsRefusedBeforeAnythingParsesIt) {
   c.study_yaml("name: fine\nbudget: 0\n" + std::string(1000, '#'));
   coordinator_->handle_command(c, now_);
   EXPECT_NE(out_.replies[1].message().to_string().find("budget"), std::string::npos);
+}
+
 TEST_F(CoordinatorTest, AStudysElapsedTimeIsNeverNegativeAfterTheWallClockIsSteppedBack) {
   submit(4, 4);
   worker("a", 1);
