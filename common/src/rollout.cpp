@@ -64,6 +64,15 @@ std::optional<std::string> impossible_motion(const TimedTrunk& previous, const P
 
 }  // namespace
 
+const char* to_string(PlantLifecycle lifecycle) {
+  switch (lifecycle) {
+    case PlantLifecycle::kInactive: return "inactive";
+    case PlantLifecycle::kActive: return "active";
+    case PlantLifecycle::kFault: return "in fault";
+  }
+  return "unknown";
+}
+
 const char* to_string(RolloutOutcome outcome) {
   switch (outcome) {
     case RolloutOutcome::kCompleted: return "completed";
@@ -77,6 +86,11 @@ const char* to_string(RolloutOutcome outcome) {
 RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const RolloutSettings& settings,
                           std::uint64_t seed, const TraceSink& trace) {
   const auto wall_start = std::chrono::steady_clock::now();
+  // A plant never activated is a programming error; one that faulted after its activation (a stop that came
+  // just before the loop) is a plant fault, which the loop's first tick reports as such.
+  if (plant.lifecycle() == PlantLifecycle::kInactive) {
+    throw InputError("run_rollout: the plant is inactive (activate() it first)");
+  }
   validate(params);
   validate(settings.contact_sensor);
   const double dt = plant.time_step_s();

@@ -93,17 +93,17 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
     });
   }
   CanPlant& plant = *impl_->plant;
-  const std::optional<std::string> not_ready = plant.prepare(settings.entrain_s + settings.eval_s);
-  // prepare() clears the plant's trip, so a stop that came while it ran is read from the latch here.
+  const std::optional<std::string> not_ready = plant.activate(settings.entrain_s + settings.eval_s);
+  // activate() clears the plant's trip, so a stop that came while it ran is read from the latch here.
   if (auto stop = impl_->latch.reason()) {
     plant.emergency_stop(stop->c_str());
-    plant.finish();
+    plant.deactivate();
     out.error = "emergency stop: " + *stop;
     out.outcome = HardwareOutcome::kPlantFault;
     return out;
   }
   if (not_ready) {
-    plant.finish();
+    plant.deactivate();
     out.error = "robot not ready: " + *not_ready;
     out.outcome = HardwareOutcome::kPlantFault;
     return out;
@@ -113,12 +113,12 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
     out.result = run_rollout(plant, params, settings, seed);
   } catch (const std::exception& e) {
     plant.emergency_stop("the rollout threw");
-    plant.finish();
+    plant.deactivate();
     out.error = fmt::format("rollout failed: {}", e.what());
     return out;
   }
   out.cpu_s = thread_cpu_s() - cpu_start;
-  plant.finish();
+  plant.deactivate();
   const LoopStats s = plant.loop_stats();
   out.loop = {s.ticks, s.jitter_p50_us, s.jitter_p99_us, s.jitter_max_us, s.overruns,
               s.feedback_latency_p50_us, s.feedback_latency_p99_us, s.feedback_latency_max_us,

@@ -221,6 +221,11 @@ class HardwareWorker {
     }
   }
 
+  // This agent is robot `name`: its worker id, or the identity (CN) before a '/' of it.
+  bool is_robot(const std::string& name) const {
+    return options_.id == name || options_.id.rfind(name + "/", 0) == 0;
+  }
+
   msg::RolloutReport execute(const msg::Candidate& c) {
     const auto start = std::chrono::steady_clock::now();
     HardwareRollout h;
@@ -232,6 +237,9 @@ class HardwareWorker {
       h.outcome = HardwareOutcome::kRefused;
     } else if (const worker::SpecBook::Lookup spec = specs_.find(c.spec_key()); !spec.spec) {
       h.error = "refused: " + spec.refusal;
+      h.outcome = HardwareOutcome::kRefused;
+    } else if (const std::string& wanted = spec.spec->config().robot; !wanted.empty() && !is_robot(wanted)) {
+      h.error = fmt::format("refused: the study is for robot '{}'; this agent is '{}'", wanted, options_.id);
       h.outcome = HardwareOutcome::kRefused;
     } else {
       // The study's spec: its controller, feedback, contact sensing, cost and base parameters (the robot's

@@ -85,6 +85,12 @@ TEST(ShmCleanup, RemovesTheSegmentsAndPortsOfDeadProcessesOnly) {
                         "fastrtps_notasegment_el", "other_el", "fastrtps_0123456789abcdef.keep"}) {
     touch(dir / f);
   }
+  // Lock files older than the start-up grace (5 s): a process that just made its lock file may not hold it yet.
+  for (const auto& f : std::filesystem::directory_iterator(dir)) {
+    std::filesystem::last_write_time(f.path(), std::filesystem::file_time_type::clock::now() - std::chrono::seconds(60));
+  }
+  touch(dir / "fastrtps_00000000000000ff");
+  touch(dir / "fastrtps_00000000000000ff_el");  // unlocked but brand new: its owner may be starting
   // The living owner: an exclusive flock held on its lock file, as Fast DDS holds it.
   const int live = ::open((dir / "fastrtps_fedcba9876543210_el").c_str(), O_RDONLY);
   ASSERT_GE(live, 0);
@@ -98,6 +104,7 @@ TEST(ShmCleanup, RemovesTheSegmentsAndPortsOfDeadProcessesOnly) {
     EXPECT_FALSE(std::filesystem::exists(dir / gone)) << gone;
   }
   for (const char* kept : {"fastrtps_fedcba9876543210", "fastrtps_fedcba9876543210_el", "fastrtps_notasegment_el",
+                           "fastrtps_00000000000000ff_el",
                            "other_el", "fastrtps_0123456789abcdef.keep"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / kept)) << kept;
   }

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "cpgmatch/errors.hpp"
+
 #include "cpgmatch/can/can_bus.hpp"
 #include "cpgmatch/robot/can_plant.hpp"
 #include "cpgmatch/robot/realtime.hpp"
@@ -294,6 +296,37 @@ TEST(CanPlant, RunsACommonRolloutAndEndsInTheSafeState) {
   for (int i = 0; i < 100 && robot.last_command(0).kd_nm_s_per_rad == 0.0; ++i) std::this_thread::sleep_for(1ms);
   EXPECT_EQ(robot.last_command(0).kp_nm_per_rad, 0.0) << "after the last period the motors only damp";
   plant.finish();
+}
+
+// The Plant lifecycle, as ros2_control's hardware components have it: inactive until activated, active
+// while it may be driven, in fault once tripped, inactive again after deactivate(); a rollout runs only on
+// an active plant.
+TEST(CanPlant, ItsLifecycleGoesInactiveActiveFaultAndARolloutNeedsItActive) {
+  const RobotConfig config = tolerant_morti();
+  ScriptedRobot robot(config, "virtual:plant-lifecycle");
+  auto bus = can::open_can_bus("virtual:plant-lifecycle");
+  CanPlant plant(config, *bus, kNoStallWatch);
+  Plant& body = plant;  // what a controller sees
+  RolloutSettings settings;
+  settings.entrain_s = 0.1;
+  settings.eval_s = 0.1;
+  EXPECT_EQ(body.lifecycle(), PlantLifecycle::kInactive);
+  EXPECT_THROW((void)run_rollout(body, CpgParameters{}, settings, 1), InputError);
+  ASSERT_EQ(body.activate(settings.entrain_s + settings.eval_s), std::nullopt);
+  EXPECT_EQ(body.lifecycle(), PlantLifecycle::kActive);
+  const RolloutResult r = run_rollout(body, CpgParameters{}, settings, 1);
+  EXPECT_EQ(r.outcome, RolloutOutcome::kCompleted);
+  body.deactivate();
+  EXPECT_EQ(body.lifecycle(), PlantLifecycle::kInactive);
+  EXPECT_THROW((void)run_rollout(body, CpgParameters{}, settings, 1), InputError);
+  ASSERT_EQ(body.activate(1.0), std::nullopt);
+  plant.emergency_stop("test");
+  EXPECT_EQ(body.lifecycle(), PlantLifecycle::kFault);
+  EXPECT_EQ(body.fault().value_or(""), "emergency stop: test");
+  body.deactivate();
+  ASSERT_EQ(body.activate(1.0), std::nullopt);  // a new activation clears the trip
+  EXPECT_EQ(body.lifecycle(), PlantLifecycle::kActive);
+  body.deactivate();
 }
 
 // A watchdog trip mid-rollout is the robot's fault, not the gait's: the rollout ends as a plant fault with

@@ -20,6 +20,17 @@ n=$(sql "$WORK/s.db" "select count(*) from trials where json_extract(report_json
 grep -q "loop .* ticks, jitter p50" "$WORK/agent.log" || fail "the agent did not log its loop statistics"
 n=$(sql "$WORK/s.db" "select count(*) from trials where json_extract(report_json,'$.loop.jitter_max_us') > 0")
 [[ $n == 3 ]] || fail "expected the loop jitter in all 3 stored reports, got $n"
+# A study for another robot: the optimizer gives this agent none of its candidates (and the agent would
+# refuse them: never measuring on the wrong body); the study waits and says why, nothing is counted.
+sed -i 's/^name: .*/name: for-cheetah/' "$WORK/s.yaml"
+echo "robot: cheetah" >>"$WORK/s.yaml"
+id2=$(cli study submit --config "$WORK/s.yaml" --timeout 30) || fail "submit of the cheetah study failed"
+waits() { [[ $(json_field "$(state_json "$id2")" message) == "waiting: robot morti is not the study's robot 'cheetah'" ]]; }
+wait_until 30 waits || fail "the other robot's study does not say why it waits: $(state_json "$id2")"
+[[ $(json_field "$(state_json "$id2")" completed) == 0 ]] || fail "a candidate of the other robot's study was counted"
+[[ $(sql "$WORK/s.db" "select count(*) from trials where study_id=$id2 and worker_id='morti'") == 0 ]] \
+  || fail "the other robot's study was issued to morti"
+cli study stop "$id2" >/dev/null || true
 kill -TERM "$AGENT_PID"
 wait "$AGENT_PID" || fail "agent exited $? after SIGTERM"
-echo "PASS hardware study: $out"
+echo "PASS hardware study: $out; a study for robot cheetah not issued to morti, waiting and saying why"

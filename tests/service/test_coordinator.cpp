@@ -1126,17 +1126,23 @@ TEST_F(CoordinatorTest, PlantFaultsAreRetriedThenSpentAsAFailureTheModelNeverSee
     const msg::Candidate c = out_.candidates.back();
     ASSERT_EQ(static_cast<int>(c.trial_id()), trial);
     ASSERT_EQ(static_cast<int>(c.attempt()), fault - 1);
-    coordinator_->handle_report(unspent_report(c, fault == 1 ? msg::OUTCOME_PLANT_FAULT : msg::OUTCOME_DIVERGED,
-                                               "watchdog"), now_);
+    // From a robot: its faults may not repeat (a simulation's divergence would, and is spent at once).
+    msg::RolloutReport r = unspent_report(c, fault == 1 ? msg::OUTCOME_PLANT_FAULT : msg::OUTCOME_DIVERGED, "watchdog");
+    r.worker_kind(msg::WORKER_HARDWARE);
+    coordinator_->handle_report(r, now_);
     coordinator_->tick(now_ += 0.1);
     EXPECT_EQ(static_cast<int>(out_.candidates.back().attempt()), fault) << "fault " << fault << " not re-issued";
   }
   EXPECT_TRUE(out_.trials.empty());
-  // A stale report of an older attempt changes nothing.
+  // A stale report of an older attempt changes nothing: no re-issue, no fault counted.
   msg::Candidate stale = out_.candidates.back();
   stale.attempt(0);
+  const std::size_t sent_before = out_.candidates.size();
   coordinator_->handle_report(unspent_report(stale, msg::OUTCOME_PLANT_FAULT, "late"), now_);
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(out_.candidates.size(), sent_before);
   EXPECT_EQ(store_->unspent_attempts(id).size(), 2u);
+  EXPECT_EQ(store_->load(id)->trials.at(static_cast<std::size_t>(trial)).faults, 2);
   // The third fault reaches the bound (3): spent as a failed trial, its report the fault.
   coordinator_->handle_report(unspent_report(out_.candidates.back(), msg::OUTCOME_PLANT_FAULT, "watchdog"), now_);
   ASSERT_EQ(out_.trials.size(), 1u);
@@ -1153,6 +1159,19 @@ TEST_F(CoordinatorTest, PlantFaultsAreRetriedThenSpentAsAFailureTheModelNeverSee
   open();
   coordinator_->resume_from_store(now_);
   EXPECT_TRUE(warnings_.empty() || warnings_.back().find("cannot be reopened") == std::string::npos);
+}
+
+TEST_F(CoordinatorTest, ASimulationThatDivergedIsSpentAtOnceItWouldDivergeAgain) {
+  submit(2, 2);
+  worker("a", 1);
+  coordinator_->tick(now_);
+  msg::RolloutReport r = unspent_report(out_.candidates.back(), msg::OUTCOME_DIVERGED, "state diverged");
+  r.worker_kind(msg::WORKER_SIM);
+  coordinator_->handle_report(r, now_);
+  ASSERT_EQ(out_.trials.size(), 1u);  // spent: a trial record, no re-issue of the same point
+  EXPECT_EQ(out_.trials.back().report().outcome(), msg::OUTCOME_DIVERGED);
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(out_.candidates.back().trial_id(), 1u);  // the next trial, not the diverged one again
 }
 
 TEST_F(CoordinatorTest, AStudyWaitingForAnEmergencyStoppedRobotSaysSoAndIssuesItNothing) {

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <fmt/format.h>
+
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/study/spec_rollout.hpp"
 #include "cpgmatch/study/study_spec.hpp"
@@ -66,6 +68,41 @@ TEST(StudySpec, ItsStudyFileResubmitsToTheSameHashAndTheSameValuesToTheBit) {
   EXPECT_EQ(again.config().terrain, "rough:0.003");
   // And from its canonical JSON (the store, the wire).
   EXPECT_EQ(StudySpec::from_json_text(spec.canonical_json(), "stored").sha256(), spec.sha256());
+}
+
+TEST(StudySpec, StudyKeysAreCanonicalAndTextStaysText) {
+  const StudySpec a = StudySpec::resolve("name: s\nbudget: 12\ninitial_points: 4\nrollout: {eval_s: 3}\n", "a", kShipped);
+  const StudySpec b = StudySpec::resolve("name: s\nbudget: 12.0\ninitial_points: 4\nrollout: {eval_s: 3.0}\n", "b", kShipped);
+  EXPECT_EQ(a.sha256(), b.sha256());
+  const StudySpec text = StudySpec::resolve("name: 1.10\nrobot: 007\n", "t", kShipped);
+  EXPECT_EQ(text.config().name, "1.10");
+  EXPECT_EQ(text.config().robot, "007");
+  EXPECT_EQ(StudySpec::resolve(text.to_study_yaml(), "again", kShipped).sha256(), text.sha256());
+}
+
+TEST(StudySpec, AnOverriddenValuesSourceStaysHonest) {
+  const StudySpec plain = StudySpec::resolve("name: s\n", "s", kShipped);
+  const auto& knee = plain.tree()["model"]["knee_spring"]["stiffness_nm_per_rad"];
+  // The default's own value: the same experiment, the same source and hash.
+  const StudySpec same = StudySpec::resolve(
+      fmt::format("name: s\nmodel: {{knee_spring: {{stiffness_nm_per_rad: {}}}}}\n", knee["value"].get<double>()), "s",
+      kShipped);
+  EXPECT_EQ(same.sha256(), plain.sha256());
+  // A new value in the mapping form without a source: "study override", not the default's source.
+  const StudySpec mapped =
+      StudySpec::resolve("name: s\nmodel: {knee_spring: {stiffness_nm_per_rad: {value: 20}}}\n", "s", kShipped);
+  EXPECT_EQ(mapped.tree()["model"]["knee_spring"]["stiffness_nm_per_rad"]["source"], "study override");
+  const StudySpec sourced = StudySpec::resolve(
+      "name: s\nmodel: {knee_spring: {stiffness_nm_per_rad: {value: 20, source: measured 2026-11}}}\n", "s", kShipped);
+  EXPECT_EQ(sourced.tree()["model"]["knee_spring"]["stiffness_nm_per_rad"]["source"], "measured 2026-11");
+  EXPECT_THROW((void)StudySpec::resolve("name: s\nmodel: {knee_spring: {stiffness_nm_per_rad: {source: x}}}\n", "s",
+                                        kShipped),
+               InputError);
+}
+
+TEST(StudySpec, ASpecNestedTooDeeplyIsRefusedNotRecursedInto) {
+  const std::string deep = std::string(20000, '[') + std::string(20000, ']');
+  EXPECT_THROW((void)StudySpec::from_json_text(deep, "deep"), InputError);
 }
 
 TEST(StudySpec, AnotherObjectiveVersionIsAnotherSpec) {

@@ -87,6 +87,10 @@ nlohmann::json run_rollout_request(const nlohmann::json& request) {
 msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions& o) {
   if (auto why = dds::check_parameters(c.parameters())) return failed(c, o, "bad parameters: " + *why);
   if (auto why = check_spec(c.rollout())) return failed(c, o, "bad rollout spec: " + *why);
+  // The lease bounds the rollout process's run time below: a day at most, as a study file allows.
+  if (!std::isfinite(c.lease_s()) || c.lease_s() < 0.0 || c.lease_s() > 86400.0) {
+    return failed(c, o, fmt::format("bad candidate: lease_s = {} (must be in [0, 86400] s)", c.lease_s()));
+  }
   // The study's spec decides what this rollout computes: one this worker cannot run is refused, never
   // computed with something else (the optimizer re-issues it to a worker that can).
   SpecBook::Lookup spec;

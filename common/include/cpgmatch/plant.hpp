@@ -40,9 +40,24 @@ struct PlantState {
   PerLeg<LegState> legs;
 };
 
+// Where a plant is in its life, as ros2_control's hardware components are: inactive (its resources exist,
+// nothing is driven), active (driven: a rollout may run on it), fault (tripped: safe, and it says why until
+// the next activate() clears it; deactivate() switches it off). A simulation is active from its
+// construction and faults never; a rollout on a plant in fault ends at once as a plant fault.
+enum class PlantLifecycle { kInactive, kActive, kFault };
+const char* to_string(PlantLifecycle lifecycle);
+
 class Plant {
  public:
   virtual ~Plant() = default;
+  // Makes the plant ready to be driven for `duration_s` seconds (a robot: motors enabled, every node heard,
+  // joints ramped to standing); the reason when it cannot be (then it is left safe). Idempotent for a
+  // simulation, which is always ready.
+  virtual std::optional<std::string> activate(double /*duration_s*/) { return std::nullopt; }
+  // Stops driving it: safe state, then off. Nothing for a simulation.
+  virtual void deactivate() {}
+  virtual PlantLifecycle lifecycle() const { return fault() ? PlantLifecycle::kFault : PlantLifecycle::kActive; }
+
   virtual void command(const PerLeg<JointCommand>& commands) = 0;
   virtual void advance(double dt_s) = 0;
   virtual PlantState state() const = 0;

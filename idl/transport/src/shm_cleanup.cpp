@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cctype>
+#include <chrono>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -51,9 +52,11 @@ Owner owner_of(const std::filesystem::path& lock_file) {
   return free ? Owner::kDead : Owner::kAlive;
 }
 
-void remove_quietly(const std::filesystem::path& p) {
-  std::error_code ignored;
-  std::filesystem::remove(p, ignored);
+// True when the file is gone afterwards (removed now, or already gone).
+bool remove_quietly(const std::filesystem::path& p) {
+  std::error_code error;
+  std::filesystem::remove(p, error);
+  return !error;
 }
 
 }  // namespace
@@ -73,11 +76,15 @@ ShmCleanup remove_dead_shm_segments(const std::filesystem::path& dir) {
     const std::string base = name.substr(0, name.size() - 3);
     const bool segment = is_segment_name(base), port = is_port_name(base);
     if (!segment && !port) continue;
+    // A process creates its lock file and then locks it: a file younger than a few seconds may be one
+    // whose owner is starting right now.
+    std::error_code age_error;
+    const auto modified = std::filesystem::last_write_time(lock, age_error);
+    if (age_error || std::filesystem::file_time_type::clock::now() - modified < std::chrono::seconds(5)) continue;
     const Owner owner = owner_of(lock);
     if (owner == Owner::kAlive) ++result.in_use;
     if (owner != Owner::kDead) continue;
-    remove_quietly(dir / base);
-    remove_quietly(lock);
+    if (!remove_quietly(dir / base) || !remove_quietly(lock)) continue;  // another user's, in sticky /dev/shm
     if (port) {
       remove_quietly(dir / ("sem." + base + "_mutex"));  // the port's named semaphore
       ++result.ports_removed;

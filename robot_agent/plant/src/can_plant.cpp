@@ -88,7 +88,13 @@ void CanPlant::send_safe_state() {
   }
 }
 
+PlantLifecycle CanPlant::lifecycle() const {
+  if (tripped()) return PlantLifecycle::kFault;
+  return active_.load(std::memory_order_acquire) ? PlantLifecycle::kActive : PlantLifecycle::kInactive;
+}
+
 std::optional<std::string> CanPlant::prepare(double rollout_s) {
+  active_ = false;
   rollout_ticks_ = std::numeric_limits<std::uint64_t>::max();  // the stand-up ramp is not the rollout
   tripped_ = false;
   fault_seen_ = false;
@@ -170,10 +176,12 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
   rollout_ticks_ = static_cast<std::uint64_t>(std::llround(rollout_s / period_s_));
   expect_since_ns_ = 0;
   timer_.start();
+  active_ = true;
   return std::nullopt;
 }
 
 void CanPlant::finish() {
+  active_ = false;
   heartbeat_ns_ = 0;  // the loop stops ticking on purpose: the watch thread must not trip
   send_safe_state();
   std::array<can::CanFrame, kNumJoints> off;

@@ -144,8 +144,8 @@ void Coordinator::resume_from_store(double now_s) {
     s.id = stored.study_id;
     s.name = stored.name;
     s.state = study_status_from_string(stored.state).value_or(StudyStatus::kFailed);
-    if (!study_status_from_string(stored.state)) s.message = fmt::format("unknown stored state '{}'", stored.state);
     s.message = stored.message;
+    if (!study_status_from_string(stored.state)) s.message = fmt::format("unknown stored state '{}'", stored.state);
     s.created_at_s = stored.created_at_s;
     try {
       if (stored.spec.json.empty()) {
@@ -168,11 +168,15 @@ void Coordinator::resume_from_store(double now_s) {
       s.config = s.spec->config();
     } catch (const std::exception& e) {
       // Cannot happen for a study this service accepted, unless the file was edited by hand.
-      warn_(fmt::format("study {} in {}: its configuration no longer loads ({}); marked failed", s.id, store_.path(),
-                        e.what()));
-      s.state = StudyStatus::kFailed;
-      s.message = e.what();
-      store_.set_state(s.id, to_string(s.state), s.message);
+      // An open study is failed on record; a finished one keeps its stored state (its results stand: only
+      // this release cannot re-derive its spec, e.g. a config folder missing here).
+      warn_(fmt::format("study {} in {}: its configuration no longer loads ({}); {}", s.id, store_.path(), e.what(),
+                        study_status_from_string(stored.state) && service::is_open(*study_status_from_string(stored.state))
+                            ? "marked failed"
+                            : "left as stored"));
+      if (study_status_from_string(stored.state) && service::is_open(*study_status_from_string(stored.state))) {
+        store_.set_state(s.id, to_string(StudyStatus::kFailed), e.what());
+      }
       continue;
     }
     const int id = s.id;
@@ -560,8 +564,18 @@ Coordinator::FreeSlots Coordinator::issue_waiting_work(const std::vector<Study*>
 }
 
 bool Coordinator::may_serve(const Study& study, const PoolWorker& worker, double now_s) {
+  if (!is_study_robot(study, worker)) return false;
   const auto r = study.refused_by.find(worker.id);
   return r == study.refused_by.end() || now_s >= r->second.until_s;
+}
+
+void Coordinator::fail_on_failure_streak(Study& s, const msg::RolloutReport& r) {
+  if (s.state != StudyStatus::kRunning || s.consecutive_failures < options_.max_consecutive_failures) return;
+  s.state = StudyStatus::kFailed;
+  s.message = fmt::format("{} rollouts in a row could not run; last error: {}", s.consecutive_failures,
+                          r.error().to_string());
+  store_.set_state(s.id, to_string(s.state), s.message);
+  warn_(fmt::format("study {} failed: {}", s.id, s.message));
 }
 
 void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutReport& r, double now_s) {
@@ -569,15 +583,30 @@ void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutRepor
   const std::string worker_id = r.worker_id().to_string();
   const bool fault = r.outcome() != msg::OUTCOME_REFUSED;
   const std::string outcome = dds::to_string(r.outcome());
-  const int faults = store_.record_unspent_attempt(s.id, trial_id, static_cast<int>(r.attempt()), worker_id, outcome,
-                                                   dds::to_json(r), fault, wall_now());
   pool_.release(worker_id, s.id, trial_id);
-  if (!fault) {
-    // The worker cannot run this study now: keep the study's work off it for a while (or until it says it
-    // accepts again), so a refusal never turns into a loop of refusals.
-    s.refused_by[worker_id] = Refusal{now_s + options_.refusal_backoff_s, r.error().to_string()};
+  int faults = 0;
+  if (fault) {
+    faults = store_.record_unspent_attempt(s.id, trial_id, static_cast<int>(r.attempt()), worker_id, outcome,
+                                           dds::to_json(r), true, wall_now());
+  } else {
+    // The worker cannot run this study now: keep the study's work off it for a while, twice as long after
+    // each identical refusal (at most a minute), or until it says it accepts again, so a refusal never
+    // turns into a loop of refusals. Only a new reason is recorded: a study that waits for hours for a
+    // worker of its version does not fill the store with the same refusal.
+    Refusal& last = s.refused_by[worker_id];
+    const bool same = last.why == r.error().to_string();
+    last.backoff_s = same ? std::min(2.0 * last.backoff_s, 60.0) : options_.refusal_backoff_s;
+    last.until_s = now_s + last.backoff_s;
+    if (!same) {
+      last.why = r.error().to_string();
+      store_.record_unspent_attempt(s.id, trial_id, static_cast<int>(r.attempt()), worker_id, outcome, dds::to_json(r),
+                                    false, wall_now());
+    }
   }
-  if (fault && faults >= options_.max_fault_retries) {
+  // A simulated rollout is deterministic for its spec, point and seed: one that diverged diverges again, so
+  // it is spent at once. A robot's faults (a watchdog, a glitch) may well not repeat.
+  const bool deterministic = r.outcome() == msg::OUTCOME_DIVERGED && r.worker_kind() == msg::WORKER_SIM;
+  if (fault && (deterministic || faults >= options_.max_fault_retries)) {
     // Spent after all, as a failure the model never sees (excluded): the point was tried often enough.
     const Eigen::VectorXd x = f.x;
     const bool validation = f.validation;
@@ -591,6 +620,7 @@ void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutRepor
     warn_(fmt::format("study {} trial {}: {} {} times (last on {}: {}); spent as a failure the model does not learn "
                       "from",
                       s.id, trial_id, outcome, faults, worker_id, r.error().to_string()));
+    fail_on_failure_streak(s, r);
     finish_if_complete(s);
     s.dirty = true;
     if (!is_open(s)) publish_state(s, now_s);
@@ -601,6 +631,11 @@ void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutRepor
   f.worker_id.clear();
   ++s.reissued;
   s.dirty = true;
+}
+
+bool Coordinator::is_study_robot(const Study& study, const PoolWorker& worker) {
+  const std::string& robot = study.config.robot;
+  return !worker.hardware || robot.empty() || worker.id == robot || worker.id.rfind(robot + "/", 0) == 0;
 }
 
 msg::StudySpecSample Coordinator::spec_sample(const Study& s) {
@@ -691,11 +726,13 @@ void Coordinator::note_hardware_wait(Study& s, double now_s) {
         any_usable = true;
         break;
       }
-      if (!w.accepting) {
+      if (!is_study_robot(s, w)) {
+        reasons.push_back(fmt::format("robot {} is not the study's robot '{}'", id, s.config.robot));
+      } else if (!w.accepting) {
         reasons.push_back(fmt::format("{} {} {}", w.hardware ? "robot" : "worker", id,
                                       w.status.empty() ? std::string("not accepting") : w.status));
-      } else {
-        reasons.push_back(fmt::format("worker {} refused it: {}", id, s.refused_by.at(id).why));
+      } else if (const auto r = s.refused_by.find(id); r != s.refused_by.end()) {
+        reasons.push_back(fmt::format("worker {} refused it: {}", id, r->second.why));
       }
     }
     if (!any_usable && !reasons.empty()) {
@@ -1024,13 +1061,7 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
   out_.retire_candidate(retired);
   if (!s->records_retired) out_.publish_trial(make_trial_record(*s, trial_id, x, r));  // else: the store has it
   if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id().to_string(), r.error().to_string()));
-  if (s->state == StudyStatus::kRunning && s->consecutive_failures >= options_.max_consecutive_failures) {
-    s->state = StudyStatus::kFailed;
-    s->message = fmt::format("{} rollouts in a row could not run; last error: {}", s->consecutive_failures,
-                             r.error().to_string());
-    store_.set_state(s->id, to_string(s->state), s->message);
-    warn_(fmt::format("study {} failed: {}", s->id, s->message));
-  }
+  fail_on_failure_streak(*s, r);
   finish_if_complete(*s);
   if (!is_open(*s)) publish_state(*s, now_s);
 }

@@ -34,7 +34,7 @@ constexpr double kMaxRolloutPartS = 3600.0;  // entrainment or evaluation, secon
 StudyConfig parse(const YamlReader& r) {
   r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
                          "cost_transform", "fall_model", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation",
-                         "lockstep",
+                         "lockstep", "robot",
                          // the study's objective, resolved by StudySpec (study_spec.hpp) and checked there
                          "model", "rollout_settings", "base_parameters"});
   StudyConfig s;
@@ -76,6 +76,10 @@ StudyConfig parse(const YamlReader& r) {
   s.lease_s = r.get_double_in("lease_s", 0.0, 0.0, 86400.0);  // 0: derived from the rollout length
   s.lockstep_given = r.has("lockstep");
   s.lockstep = r.get_int_in("lockstep", 0, 0, 1024);  // more rollouts at once than this is a cluster: go async
+  s.robot = r.get_string("robot", "");
+  if (r.has("robot")) {
+    if (const auto problem = name_problem(s.robot, 63)) r.fail("robot", *problem);
+  }
   const std::string explore_on = r.get_string("explore_on", "simulation");
   if (explore_on == "hardware") {
     s.explore_on = WorkerKindWanted::kHardware;

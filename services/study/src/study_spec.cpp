@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -22,6 +23,8 @@ constexpr const char* kSettings = "rollout_settings";
 constexpr const char* kBaseParameters = "base_parameters";
 constexpr const char* kStudy = "study";
 
+}  // namespace
+
 std::string sha256_hex(const std::string& text) {
   unsigned char digest[EVP_MAX_MD_SIZE];
   unsigned int length = 0;
@@ -32,6 +35,8 @@ std::string sha256_hex(const std::string& text) {
   for (unsigned int i = 0; i < length; ++i) hex += fmt::format("{:02x}", digest[i]);
   return hex;
 }
+
+namespace {
 
 nlohmann::json scalar_to_json(const YAML::Node& node) {
   const std::string& text = node.Scalar();
@@ -99,6 +104,45 @@ std::string known_keys(const nlohmann::json& j) {
   return out;
 }
 
+bool same_value(const nlohmann::json& a, const nlohmann::json& b) {
+  if (a.is_number() && b.is_number()) return a.get<double>() == b.get<double>();
+  return a == b;
+}
+
+// Replaces `leaf` by the override's scalar, which must be of the same kind (number, boolean, string).
+void replace_value(nlohmann::json& leaf, const YAML::Node& value, const YamlReader& overrides, const std::string& key) {
+  if (!value.IsScalar()) overrides.fail(key, "must be a single value");
+  const nlohmann::json replacement = scalar_to_json(value);
+  const bool same_kind = (leaf.is_number() && replacement.is_number()) ||
+                         (leaf.is_boolean() && replacement.is_boolean()) ||
+                         (leaf.is_string() && replacement.is_string());
+  if (!same_kind) {
+    overrides.fail(key, fmt::format("'{}' is not a {}", value.Scalar(),
+                                    leaf.is_number() ? "number" : leaf.is_boolean() ? "boolean (true/false)" : "string"));
+  }
+  leaf = replacement;
+}
+
+// A model entry {value, source}: the new value, and a source that stays honest. A value equal to the
+// default's keeps the default's source (the same experiment, the same hash); a changed one says "study
+// override" unless the file gives its own source; a source alone, without a value, is refused.
+void override_sourced(nlohmann::json& slot, const YAML::Node& value, const YamlReader& overrides, const std::string& key) {
+  const nlohmann::json before = slot["value"];
+  if (value.IsMap()) {
+    const YamlReader entry = overrides.child(key);
+    entry.reject_unknown_keys({"value", "source"});
+    if (!entry.has("value")) entry.fail("source", "overrides only the source of a value; give its value too");
+    replace_value(slot["value"], entry.node()["value"], entry, "value");
+    if (entry.has("source")) {
+      slot["source"] = entry.require_string("source");
+      return;
+    }
+  } else {
+    replace_value(slot["value"], value, overrides, key);
+  }
+  if (!same_value(before, slot["value"])) slot["source"] = "study override";
+}
+
 // Merges a study file's overrides (with their file:line) onto a default tree. Only keys the default has
 // may be overridden, with a value of the same shape: a typo is an error, never a silently new key.
 void merge_overrides(nlohmann::json& target, const YamlReader& overrides) {
@@ -110,28 +154,36 @@ void merge_overrides(nlohmann::json& target, const YamlReader& overrides) {
     }
     nlohmann::json& slot = target[key];
     const YAML::Node& value = entry.second;
-    if (value.IsMap()) {
+    if (is_sourced_value(slot)) {
+      override_sourced(slot, value, overrides, key);
+    } else if (value.IsMap()) {
       if (!slot.is_object()) overrides.fail(key, "is a single value here, not a mapping");
       merge_overrides(slot, overrides.child(key));
-      continue;
-    }
-    if (!value.IsScalar()) overrides.fail(key, "must be a value or a mapping");
-    nlohmann::json replacement = scalar_to_json(value);
-    nlohmann::json& leaf = is_sourced_value(slot) ? slot["value"] : slot;
-    if (leaf.is_object()) overrides.fail(key, "is a mapping here, not a single value");
-    const bool same_kind = (leaf.is_number() && replacement.is_number()) ||
-                           (leaf.is_boolean() && replacement.is_boolean()) ||
-                           (leaf.is_string() && replacement.is_string());
-    if (!same_kind) {
-      overrides.fail(key, fmt::format("'{}' is not a {}", value.Scalar(),
-                                      leaf.is_number() ? "number" : leaf.is_boolean() ? "boolean (true/false)" : "string"));
-    }
-    leaf = replacement;
-    if (is_sourced_value(slot) && slot.contains("source")) {
-      // Keep provenance honest: the default's source no longer describes this number.
-      if (slot["value"] != nlohmann::json(nullptr)) slot["source"] = "study override";
+    } else {
+      if (slot.is_object()) overrides.fail(key, "is a mapping here, not a single value");
+      replace_value(slot, value, overrides, key);
     }
   }
+}
+
+// The study's own keys as a tree. Numbers as doubles (budget 150 and 150.0 are one study); keys whose
+// value is text stay the text as written (a study named 1.10, a robot 007).
+nlohmann::json study_section(const YAML::Node& root) {
+  static const std::set<std::string> kTextKeys = {"name",    "robot",          "terrain",    "acquisition",
+                                                  "initial_design", "liar", "cost_transform", "explore_on"};
+  nlohmann::json study = nlohmann::json::object();
+  for (const auto& entry : root) {
+    const std::string key = entry.first.Scalar();
+    if (key == "model" || key == "rollout_settings" || key == "base_parameters") continue;
+    if (kTextKeys.count(key) > 0 && entry.second.IsScalar()) {
+      study[key] = entry.second.Scalar();
+    } else {
+      nlohmann::json value = yaml_to_json(entry.second);
+      numbers_to_double(value);
+      study[key] = std::move(value);
+    }
+  }
+  return study;
 }
 
 nlohmann::json default_tree(const std::string& path) {
@@ -180,12 +232,7 @@ StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& s
   (void)load_study_config_text(study_yaml, source_name);  // the study's own keys, with file:line errors
   nlohmann::json tree = nlohmann::json::object();
   tree["objective_version"] = objective_version;
-  nlohmann::json study = nlohmann::json::object();
-  for (const auto& entry : r.node()) {
-    const std::string key = entry.first.Scalar();
-    if (key != kModel && key != kSettings && key != kBaseParameters) study[key] = yaml_to_json(entry.second);
-  }
-  tree[kStudy] = std::move(study);
+  tree[kStudy] = study_section(r.node());
 
   nlohmann::json model = default_tree(defaults.model_path);
   nlohmann::json settings = default_tree(defaults.rollout_settings_path);
@@ -213,7 +260,13 @@ StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& s
 StudySpec StudySpec::from_json_text(const std::string& canonical_json, const std::string& source_name) {
   nlohmann::json tree;
   try {
-    tree = nlohmann::json::parse(canonical_json);
+    // A spec is a few levels deep; a sample nested thousands deep (64 kB allow 32k levels) would exhaust a
+    // worker's stack in the recursive code below: refused while parsing.
+    constexpr int kMaxDepth = 16;
+    tree = nlohmann::json::parse(canonical_json, [&](int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
+      if (depth > kMaxDepth) throw InputError(fmt::format("{}: study spec nested deeper than {} levels", source_name, kMaxDepth));
+      return true;
+    });
   } catch (const nlohmann::json::exception& e) {
     throw InputError(fmt::format("{}: study spec is not JSON: {}", source_name, e.what()));
   }

@@ -19,6 +19,13 @@ SpecBook::Lookup SpecBook::find(std::uint64_t key, std::chrono::milliseconds wai
     return {nullptr, fmt::format("study spec {} is for objective version {}; this worker computes version {}",
                                  study::spec_key_hex(key), received->objective_version, objective_version_)};
   }
+  // Its content must be what its key and hash say before anything parses it: the optimizer sends exactly
+  // its canonical JSON, so anything else is a forgery or a corruption.
+  const std::string content_hash = study::sha256_hex(received->json);
+  if (content_hash != received->sha256 || content_hash.substr(0, 16) != study::spec_key_hex(key)) {
+    return {nullptr, fmt::format("study spec {}: its content hashes to {}, not to its key and hash",
+                                 study::spec_key_hex(key), content_hash.substr(0, 16))};
+  }
   std::shared_ptr<const study::StudySpec> spec;
   try {
     spec = std::make_shared<const study::StudySpec>(

@@ -88,6 +88,9 @@ std::optional<ReceivedSpec> WorkerLink::spec(std::uint64_t key, std::chrono::mil
 
 void WorkerLink::announce(bool accepting) {
   std::lock_guard<std::mutex> lock(announce_mutex_);
+  // The heartbeat read accepting_ before taking the lock: a stop announced meanwhile (set_accepting on a
+  // DDS thread) must not be undone by that stale value.
+  accepting = accepting && accepting_.load();
   const CandidateQueue::Load load = queue_.load();
   msg::WorkerAnnouncement a;
   a.worker_key(dds::worker_key(config_.worker_id));

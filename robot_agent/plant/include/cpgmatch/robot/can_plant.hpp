@@ -69,6 +69,11 @@ class CanPlant final : public Plant {
   std::optional<std::string> prepare(double rollout_s);
   // After a rollout (or on a fall or a signal): safe state, then motor mode off.
   void finish();
+  // The Plant lifecycle: activate() is prepare(), deactivate() is finish(); active between a successful
+  // prepare() and finish(), in fault once tripped, inactive otherwise.
+  std::optional<std::string> activate(double duration_s) override { return prepare(duration_s); }
+  void deactivate() override { finish(); }
+  PlantLifecycle lifecycle() const override;
   // Trips the watchdog from outside (emergency stop, SIGINT/SIGTERM): safe state at once.
   void emergency_stop(const char* reason);
 
@@ -137,6 +142,7 @@ class CanPlant final : public Plant {
   std::uint64_t rollout_ticks_ = 0;  // after this many the rollout is over: safe state, no stall watch
 
   std::atomic<bool> tripped_{false};
+  std::atomic<bool> active_{false};  // between a successful prepare() and finish()
   std::atomic<std::int64_t> safe_sent_ns_{0};
   std::atomic<std::int64_t> silent_since_at_trip_ns_{0};
   mutable std::atomic<bool> fault_seen_{false};

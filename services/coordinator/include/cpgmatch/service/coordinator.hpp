@@ -216,6 +216,7 @@ class Coordinator {
   };
   struct Refusal {
     double until_s = 0.0;
+    double backoff_s = 0.0;  // doubles with each identical refusal
     std::string why;
   };
   struct Study {
@@ -296,6 +297,10 @@ class Coordinator {
   // A report that did not measure its trial (refused, plant_fault, diverged): re-issue it, or spend it as an
   // excluded failure once its faults reach the bound.
   void handle_unspent(Study& study, int trial_id, const msg::RolloutReport& report, double now_s);
+  // Fails a running study whose last max_consecutive_failures reports were all failures.
+  void fail_on_failure_streak(Study& study, const msg::RolloutReport& last);
+  // A hardware worker may run the study only if it is the study's robot (StudyConfig::robot), when it names one.
+  static bool is_study_robot(const Study& study, const PoolWorker& worker);
   // The study's spec as a DDS sample.
   static msg::StudySpecSample spec_sample(const Study& study);
   // Resolves a study's spec (the service's defaults when options_.spec_defaults names none).

@@ -13,6 +13,7 @@
 //   lease_s: 120            # wall seconds a worker may take per rollout before it is re-issued
 //   explore_on: simulation  # worker kind running the exploration (budget): simulation | hardware
 //   validation: {hardware_sets: 10, spread: 0.10}   # optional: the hardware validation phase
+//   robot: morti            # optional: only this robot agent runs its hardware rollouts
 #pragma once
 
 #include <cstddef>
@@ -45,6 +46,9 @@ struct StudyConfig {
   // Wall seconds a rollout may take before its candidate is re-issued; <= 0: derived from the rollout length.
   double lease_s = 0.0;
   WorkerKindWanted explore_on = WorkerKindWanted::kSimulation;
+  // The robot whose agent may run this study's hardware rollouts: its worker id (or the CN before a '/').
+  // Empty: any robot agent. Another robot's agent refuses the candidates (it never measures on the wrong body).
+  std::string robot;
   ValidationConfig validation;
   // Reproducible parallelism: with lockstep N > 0, trial k is proposed from exactly the results of trials
   // 0..k-N-1, told in trial order one at a time, with trials k-N..k-1 pending. At most N rollouts then run

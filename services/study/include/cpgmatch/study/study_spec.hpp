@@ -100,6 +100,9 @@ class StudySpec {
   CpgParameters base_parameters_;
 };
 
+// Hex SHA-256 of a text (a spec's canonical JSON).
+std::string sha256_hex(const std::string& text);
+
 // "1a2b3c4d5e6f7a8b": a spec key as 16 hex digits (logs, refusals).
 std::string spec_key_hex(std::uint64_t key);
 
