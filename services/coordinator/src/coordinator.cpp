@@ -715,7 +715,8 @@ void Coordinator::note_hardware_wait(Study& s, double now_s) {
       if (!f.worker_id.empty()) continue;
       (f.validation || explores_on_hardware(s) ? hw_work : sim_work) = true;
     }
-    if (s.in_flight.empty() && s.completed < s.config.budget && s.proposed.empty() && !s.model_busy) {
+    // Exploration still to run whose points wait (proposed, or not yet asked for) with no trial in flight.
+    if (exploring_in_flight(s) == 0 && s.completed < s.config.budget) {
       (explores_on_hardware(s) ? hw_work : sim_work) = true;
     }
     std::vector<std::string> reasons;
