@@ -81,9 +81,11 @@ st=$(state_json "$id")
 [[ $(grep -c "rollout on the robot" "$WORK/agent.log") == 1 ]] || fail "the latched agent started a rollout"
 
 # Latched: the agent announces it is not accepting, with the reason, and refuses a candidate, naming the stop.
-workers_json=$("$BIN/cpgmatch" workers --json --domain "$DOMAIN" --localhost-only --timeout 3 2>/dev/null)
-[[ $workers_json == *'"accepting":false'* && $workers_json == *"emergency-stopped ($REASON)"* ]] \
-  || fail "the latched agent does not announce it is stopped: $workers_json"
+announces_stop() {
+  workers_json=$("$BIN/cpgmatch" workers --json --domain "$DOMAIN" --localhost-only --timeout 3 2>/dev/null || true)
+  [[ $workers_json == *'"accepting":false'* && $workers_json == *"emergency-stopped ($REASON)"* ]]
+}
+wait_until 15 announces_stop || fail "the latched agent does not announce it is stopped: $workers_json"
 got=$("$BIN/offer_candidate" "$DOMAIN" morti 1) || fail "no report for the offered candidate"
 [[ $(json_field "$got" ok) == False && $(json_field "$got" outcome) == refused && $(json_field "$got" error) == *"emergency stop latched: $REASON"* ]] \
   || fail "not refused while latched: $got"
