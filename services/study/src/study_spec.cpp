@@ -4,6 +4,9 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <mutex>
 #include <set>
 
 #include <fmt/format.h>
@@ -186,11 +189,28 @@ nlohmann::json study_section(const YAML::Node& root) {
   return study;
 }
 
-nlohmann::json default_tree(const std::string& path) {
+nlohmann::json parse_default_tree(const std::string& path) {
   const YamlReader r = YamlReader::from_string(read_text_file(path, path), path);
   nlohmann::json j = yaml_to_json(r.node());
   numbers_to_double(j);
   return j;
+}
+
+// A defaults file as a tree, parsed once per content: the service resolves every submitted study onto the
+// same three files, and re-parsing them for each of 20 studies submitted at once held its event loop for
+// 7 ms a study. Keyed by path and modification time, so an edited defaults file counts for new studies.
+nlohmann::json default_tree(const std::string& path) {
+  static std::mutex mutex;
+  static std::map<std::string, std::pair<std::filesystem::file_time_type, nlohmann::json>> cache;
+  std::error_code error;
+  const auto modified = std::filesystem::last_write_time(path, error);
+  if (error) return parse_default_tree(path);  // names the file in its error
+  std::lock_guard<std::mutex> lock(mutex);
+  const auto it = cache.find(path);
+  if (it != cache.end() && it->second.first == modified) return it->second.second;
+  nlohmann::json tree = parse_default_tree(path);
+  cache[path] = {modified, tree};
+  return tree;
 }
 
 YamlReader reader_of(const nlohmann::json& tree, const std::string& source_name) {
