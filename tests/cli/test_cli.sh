@@ -113,6 +113,12 @@ check "log transform: the warning names the cost" grep -q "evaluation [0-9]* fai
 check "bench-optimizer json" python3 -c "
 import json; r=json.load(open('$tmp/b.json')); assert {'best','regret','best_index','wall_time_s','proposal_ms_last'} <= set(r)"
 
+# A log-modelled cost on a function that is not > 0 everywhere is refused before the run, not mid-run.
+check "bench-optimizer log on hartmann3" expect_exit 2 "\-\-cost-transform log: hartmann3" \
+  "$bin" bench-optimizer --function hartmann3 --cost-transform log --budget 10 --quiet
+"$bin" bench-optimizer --function branin --cost-transform log --budget 12 --initial 5 --seed 0 --quiet --json >"$tmp/bl.json"
+check "bench-optimizer log on branin (minimum 0.398 > 0) runs" test $? -eq 0
+
 # The service executables and clients: bad flags and environment exit 2 naming them; no optimizer is
 # a clear failure (exit 1), not a hang.
 bindir="$(dirname "$bin")"

@@ -20,7 +20,15 @@ void add_bench_optimizer_command(CLI::App& app) {
   flags->add_to(cmd);
   cmd->callback([flags, function] {
     const bo::TestFunction tf = bo::test_function(*function);
-    bo::BayesianOptimizer opt(tf.space, flags->to_options());
+    const bo::OptimizerOptions options = flags->to_options();
+    // A log-modelled cost must stay > 0: refused before the run for a function whose minimum is not (it
+    // used to stop mid-run with exit 2 at the first non-positive value).
+    if (options.cost_transform == bo::CostTransform::kLog && !(tf.global_minimum > 0.0)) {
+      throw InputError(fmt::format("--cost-transform log: {} reaches {} (its global minimum), and log needs costs > 0; "
+                                   "use --cost-transform none",
+                                   tf.name, tf.global_minimum));
+    }
+    bo::BayesianOptimizer opt(tf.space, options);
     ProgressLine progress(flags->budget, flags->quiet);
     const auto start = std::chrono::steady_clock::now();
     double best = std::numeric_limits<double>::infinity();
