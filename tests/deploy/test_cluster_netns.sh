@@ -132,6 +132,14 @@ study_done() { [[ $(field "$(view_state "$1")" state) == done ]]; }
 completed_at_least() { [[ $(field "$(view_state "$1")" completed) -ge $2 ]] 2>/dev/null; }
 log_has() { grep -q -- "$2" "$WORK/$1.log"; }
 
+# Both worker hosts discovered (through the server) before study 1, whose 8 short rollouts take a fraction
+# of a second: a worker joining a moment late would otherwise find it already done.
+both_workers_seen() {
+  local seen
+  seen=$(in_ns view "$BIN/cpgmatch" workers --json "${DDS[@]}" --timeout 3 2>>"$WORK/cli.log" || true)
+  [[ $seen == *'"wa"'* && $seen == *'"wb"'* ]]
+}
+wait_for 30 both_workers_seen || fail "the viewer does not see both worker hosts"
 t0=$SECONDS
 s1=$(submit "$WORK/s1.yaml") || fail "submit of study 1 across namespaces"
 wait_for 40 study_done "$s1" || fail "study 1 did not finish: $(view_state "$s1")"
