@@ -72,13 +72,18 @@ StopOutcome HardwareRunner::stop_command(const StopRequest& request) {
 
 std::optional<std::string> HardwareRunner::latched_stop() const { return impl_->latch.reason(); }
 
-HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSettings& requested, std::uint64_t seed) {
+std::optional<HardwareRollout> HardwareRunner::latched_refusal() const {
+  const std::optional<std::string> stop = impl_->latch.reason();
+  if (!stop) return std::nullopt;
   HardwareRollout out;
-  if (auto stop = impl_->latch.reason()) {
-    out.error = "refused: emergency stop latched: " + *stop + " (until cpgmatch estop --release or a restart)";
-    out.outcome = HardwareOutcome::kRefused;
-    return out;
-  }
+  out.error = "refused: emergency stop latched: " + *stop + " (until cpgmatch estop --release or a restart)";
+  out.outcome = HardwareOutcome::kRefused;
+  return out;
+}
+
+HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSettings& requested, std::uint64_t seed) {
+  if (std::optional<HardwareRollout> refused = latched_refusal()) return *refused;
+  HardwareRollout out;
   if (auto why = impl_->config.envelope_violation(params)) {
     out.error = "refused: " + *why;
     return out;

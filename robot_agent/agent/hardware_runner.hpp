@@ -76,6 +76,8 @@ class HardwareRunner {
   StopOutcome stop_command(const StopRequest& request);
   // The latched stop's reason, or nullopt.
   std::optional<std::string> latched_stop() const;
+  // While latched: the refusal every candidate gets (run() gives the same), before anything else is looked at.
+  std::optional<HardwareRollout> latched_refusal() const;
 
   // What was refused when entering real-time mode (empty when granted); set after the first run().
   std::string realtime_warning() const;

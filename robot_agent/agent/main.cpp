@@ -221,24 +221,17 @@ class HardwareWorker {
     }
   }
 
-  // This agent is robot `name`: its worker id, or the identity (CN) before a '/' of it.
-  bool is_robot(const std::string& name) const {
-    return options_.id == name || options_.id.rfind(name + "/", 0) == 0;
-  }
-
   msg::RolloutReport execute(const msg::Candidate& c) {
     const auto start = std::chrono::steady_clock::now();
     HardwareRollout h;
     if (auto why = dds::check_parameters(c.parameters())) {
       h.error = "bad parameters: " + *why;
-    } else if (const std::optional<std::string> stop = runner_.latched_stop()) {
-      // Latched: refused before anything else is looked at (the optimizer re-issues it after the release).
-      h.error = "refused: emergency stop latched: " + *stop + " (until cpgmatch estop --release or a restart)";
-      h.outcome = HardwareOutcome::kRefused;
+    } else if (std::optional<HardwareRollout> refused = runner_.latched_refusal()) {
+      h = std::move(*refused);  // before any spec is looked at; the optimizer re-issues it after the release
     } else if (const worker::SpecBook::Lookup spec = specs_.find(c.spec_key()); !spec.spec) {
       h.error = "refused: " + spec.refusal;
       h.outcome = HardwareOutcome::kRefused;
-    } else if (const std::string& wanted = spec.spec->config().robot; !wanted.empty() && !is_robot(wanted)) {
+    } else if (const std::string& wanted = spec.spec->config().robot; !wanted.empty() && !dds::worker_id_belongs_to(options_.id, wanted)) {
       h.error = fmt::format("refused: the study is for robot '{}'; this agent is '{}'", wanted, options_.id);
       h.outcome = HardwareOutcome::kRefused;
     } else {

@@ -163,6 +163,14 @@ class CoordinatorTest : public ::testing::Test {
     r.cost(cost);
     return r;
   }
+  // A report of `outcome` for a candidate: refused, plant_fault or diverged did not measure the point.
+  msg::RolloutReport unspent_report(const msg::Candidate& c, msg::RolloutOutcome outcome, const std::string& why) {
+    msg::RolloutReport r = report_for(c, std::nan(""));
+    r.ok(false);
+    r.outcome(outcome);
+    r.error(why);
+    return r;
+  }
   // Answers every candidate sent so far that has not been answered yet.
   void answer_all(double cost = 1.0) {
     while (answered_ < out_.candidates.size()) {
@@ -1062,20 +1070,6 @@ std::map<int, std::map<std::string, double>> two_worker_study(CoordinatorTest& t
 
 namespace cpgmatch::service {
 namespace {
-
-// A report of `outcome` for a candidate: refused, plant_fault or diverged did not measure the point.
-msg::RolloutReport unspent_report(const msg::Candidate& c, msg::RolloutOutcome outcome, const std::string& why) {
-  msg::RolloutReport r;
-  r.study_id(c.study_id());
-  r.trial_id(c.trial_id());
-  r.attempt(c.attempt());
-  r.worker_id(c.worker_id());
-  r.ok(false);
-  r.outcome(outcome);
-  r.error(why);
-  r.cost(std::nan(""));
-  return r;
-}
 
 TEST_F(CoordinatorTest, ARefusedCandidateIsReissuedNeverSpentAndTheRefusingWorkerIsLeftAloneForAWhile) {
   const int id = submit(2, 2);

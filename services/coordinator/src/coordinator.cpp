@@ -170,13 +170,10 @@ void Coordinator::resume_from_store(double now_s) {
       // Cannot happen for a study this service accepted, unless the file was edited by hand.
       // An open study is failed on record; a finished one keeps its stored state (its results stand: only
       // this release cannot re-derive its spec, e.g. a config folder missing here).
+      const bool was_open = service::is_open(s.state);
       warn_(fmt::format("study {} in {}: its configuration no longer loads ({}); {}", s.id, store_.path(), e.what(),
-                        study_status_from_string(stored.state) && service::is_open(*study_status_from_string(stored.state))
-                            ? "marked failed"
-                            : "left as stored"));
-      if (study_status_from_string(stored.state) && service::is_open(*study_status_from_string(stored.state))) {
-        store_.set_state(s.id, to_string(StudyStatus::kFailed), e.what());
-      }
+                        was_open ? "marked failed" : "left as stored"));
+      if (was_open) store_.set_state(s.id, to_string(StudyStatus::kFailed), e.what());
       continue;
     }
     const int id = s.id;
@@ -635,7 +632,8 @@ void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutRepor
 
 bool Coordinator::is_study_robot(const Study& study, const PoolWorker& worker) {
   const std::string& robot = study.config.robot;
-  return !worker.hardware || robot.empty() || worker.id == robot || worker.id.rfind(robot + "/", 0) == 0;
+  // The same rule as a worker id and its certificate: the robot's name, or the name and a suffix.
+  return !worker.hardware || robot.empty() || dds::worker_id_belongs_to(worker.id, robot);
 }
 
 msg::StudySpecSample Coordinator::spec_sample(const Study& s) {
