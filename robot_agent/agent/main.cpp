@@ -30,7 +30,7 @@
 
 #include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/domain.hpp"
-#include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/domain/report_json.hpp"
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
@@ -68,32 +68,29 @@ struct Options {
 // The shipped configs: $CPGMATCH_CONFIG_DIR, else an installed prefix's, else the source tree's.
 std::string config_path(const std::string& relative) { return (runtime::config_dir() / relative).string(); }
 
-msg::RolloutOutcome outcome_of(const HardwareRollout& h) {
+domain::Outcome outcome_of(const HardwareRollout& h) {
   switch (h.outcome) {
-    case HardwareOutcome::kRan: return dds::to_wire(h.result.outcome);
-    case HardwareOutcome::kRefused: return msg::OUTCOME_REFUSED;
-    case HardwareOutcome::kPlantFault: return msg::OUTCOME_PLANT_FAULT;
-    case HardwareOutcome::kError: return msg::OUTCOME_ERROR;
+    case HardwareOutcome::kRan: return domain::outcome_of(h.result.outcome);
+    case HardwareOutcome::kRefused: return domain::Outcome::kRefused;
+    case HardwareOutcome::kPlantFault: return domain::Outcome::kPlantFault;
+    case HardwareOutcome::kError: return domain::Outcome::kError;
   }
-  return msg::OUTCOME_ERROR;
+  return domain::Outcome::kError;
 }
 
-msg::RolloutReport to_report(const HardwareRollout& h) {
-  msg::RolloutReport r;
+domain::RolloutReport to_report(const HardwareRollout& h) {
+  domain::RolloutReport r;
   if (h.ok) {
-    dds::fill_report(r, h.result);
+    r = domain::report_of(h.result);
   } else {
-    r.ok(false);
-    r.outcome(outcome_of(h));
-    r.error(h.error.substr(0, 255));
-    r.cost(std::nan(""));
-    r.fall_time_s(-1.0);
+    r.outcome = outcome_of(h);
+    r.error = h.error;
   }
-  r.worker_kind(msg::WORKER_HARDWARE);
-  r.loop_jitter_p50_us(h.loop.jitter_p50_us);
-  r.loop_jitter_p99_us(h.loop.jitter_p99_us);
-  r.loop_jitter_max_us(h.loop.jitter_max_us);
-  r.loop_overruns(static_cast<std::uint32_t>(std::min<std::uint64_t>(h.loop.overruns, UINT32_MAX)));
+  r.worker_kind = domain::WorkerKind::kHardware;
+  r.loop.jitter_p50_us = h.loop.jitter_p50_us;
+  r.loop.jitter_p99_us = h.loop.jitter_p99_us;
+  r.loop.jitter_max_us = h.loop.jitter_max_us;
+  r.loop.overruns = static_cast<int>(std::min<std::uint64_t>(h.loop.overruns, INT32_MAX));
   return r;
 }
 
@@ -148,7 +145,7 @@ int run_once(const Options& o, HardwareRunner& runner, const RolloutSettings& se
   const HardwareRollout h = runner.run(params, settings, o.seed);
   if (!runner.realtime_warning().empty()) spdlog::warn("{}", runner.realtime_warning());
   if (o.json) {
-    nlohmann::json j = dds::to_json(to_report(h));
+    nlohmann::json j = domain::to_json(to_report(h));
     j["loop"] = loop_json(h);  // the report's loop fields and more
     j["sim_time_s"] = h.result.sim_time_s;
     std::cout << j.dump() << std::endl;
@@ -172,11 +169,11 @@ class HardwareWorker {
         runner_(runner),
         queue_(o.id),
         link_(worker::WorkerLinkConfig{o.domain, o.id, "cpgmatch-robot-agent " + o.id, o.localhost_only,
-                                       msg::WORKER_HARDWARE, 1, o.heartbeat_s, host_name(),
-                                       [this](const msg::EmergencyStop& s) { on_emergency_stop(s); },
-                                       study::kObjectiveVersion},
+                                       domain::WorkerKind::kHardware, 1, o.heartbeat_s, host_name(),
+                                       [this](const domain::EmergencyStop& s) { on_emergency_stop(s); },
+                                       static_cast<int>(study::kObjectiveVersion)},
               queue_),
-        specs_(link_, study::kObjectiveVersion) {
+        specs_(link_, static_cast<int>(study::kObjectiveVersion)) {
     rollout_thread_ = std::thread([this] { rollout_loop(); });
   }
 
@@ -198,8 +195,8 @@ class HardwareWorker {
   }
 
   // On a DDS thread. The runner does the safety part (latch, safe state); this only translates and tells.
-  void on_emergency_stop(const msg::EmergencyStop& s) {
-    const StopOutcome outcome = runner_.stop_command(StopRequest{s.target().to_string(), s.reason().to_string(), s.release()});
+  void on_emergency_stop(const domain::EmergencyStop& s) {
+    const StopOutcome outcome = runner_.stop_command(StopRequest{s.target, s.reason, s.release});
     if (outcome == StopOutcome::kNotForThisRobot) return;
     const std::optional<std::string> latched = runner_.latched_stop();
     // Announced at once, with the reason: the optimizer stops assigning to this robot, re-issues the rollout
@@ -208,30 +205,30 @@ class HardwareWorker {
     if (latched) {
       spdlog::warn("EMERGENCY STOP {:016x} from {} ({}): {}; motors in the safe state, refusing candidates until "
                    "`cpgmatch estop --release` or a restart",
-                   s.stop_id(), s.sender().to_string(), to_string(outcome), *latched);
+                   s.stop_id, s.sender, to_string(outcome), *latched);
     } else {
-      spdlog::warn("emergency stop {:016x} from {}: {}; accepting candidates again", s.stop_id(), s.sender().to_string(), to_string(outcome));
+      spdlog::warn("emergency stop {:016x} from {}: {}; accepting candidates again", s.stop_id, s.sender, to_string(outcome));
     }
   }
 
   void rollout_loop() {
-    while (const std::optional<msg::Candidate> c = queue_.take()) {
+    while (const std::optional<domain::Candidate> c = queue_.take()) {
       link_.publish(execute(*c));
       queue_.finish(*c);
     }
   }
 
-  msg::RolloutReport execute(const msg::Candidate& c) {
+  domain::RolloutReport execute(const domain::Candidate& c) {
     const auto start = std::chrono::steady_clock::now();
     HardwareRollout h;
-    if (auto why = dds::check_parameters(c.parameters())) {
+    if (auto why = domain::check_parameters(c.parameters)) {
       h.error = "bad parameters: " + *why;
     } else if (std::optional<HardwareRollout> refused = runner_.latched_refusal()) {
       h = std::move(*refused);  // before any spec is looked at; the optimizer re-issues it after the release
-    } else if (const worker::SpecBook::Lookup spec = specs_.find(c.spec_key()); !spec.spec) {
+    } else if (const worker::SpecBook::Lookup spec = specs_.find(c.spec_key); !spec.spec) {
       h.error = "refused: " + spec.refusal;
       h.outcome = HardwareOutcome::kRefused;
-    } else if (const std::string& wanted = spec.spec->config().robot; !wanted.empty() && !dds::worker_id_belongs_to(options_.id, wanted)) {
+    } else if (const std::string& wanted = spec.spec->config().robot; !wanted.empty() && !domain::worker_id_belongs_to(options_.id, wanted)) {
       h.error = fmt::format("refused: the study is for robot '{}'; this agent is '{}'", wanted, options_.id);
       h.outcome = HardwareOutcome::kRefused;
     } else {
@@ -240,14 +237,14 @@ class HardwareWorker {
       CpgParameters params = spec.spec->base_parameters();
       RolloutSettings settings = spec.spec->rollout_settings();
       try {
-        for (const auto& [name, value] : dds::from_wire(c.parameters())) set_parameter(params, name, value, "candidate");
-        settings.entrain_s = c.rollout().entrain_s();
-        settings.eval_s = c.rollout().eval_s();
+        for (const auto& [name, value] : c.parameters) set_parameter(params, name, value, "candidate");
+        settings.entrain_s = c.rollout.entrain_s;
+        settings.eval_s = c.rollout.eval_s;
         if (!(settings.entrain_s >= 0.0 && settings.eval_s > 0.0 && settings.entrain_s + settings.eval_s <= 600.0)) {
           throw InputError(fmt::format("rollout length entrain {} s + eval {} s must be in (0, 600] s", settings.entrain_s, settings.eval_s));
         }
-        spdlog::info("study {} trial {}: rollout on the robot ({} + {} s)", c.study_id(), c.trial_id(), settings.entrain_s, settings.eval_s);
-        h = runner_.run(params, settings, c.rollout().seed());
+        spdlog::info("study {} trial {}: rollout on the robot ({} + {} s)", c.id.study_id, c.id.trial_id, settings.entrain_s, settings.eval_s);
+        h = runner_.run(params, settings, c.rollout.seed);
       } catch (const std::exception& e) {
         h.ok = false;
         h.error = e.what();
@@ -258,17 +255,14 @@ class HardwareWorker {
       warned_ = true;
     }
     if (h.ok) {
-      spdlog::info("study {} trial {}: cost {:.4f}{}; {}", c.study_id(), c.trial_id(), h.result.cost, h.result.fell ? " (fell)" : "", loop_summary(h));
+      spdlog::info("study {} trial {}: cost {:.4f}{}; {}", c.id.study_id, c.id.trial_id, h.result.cost, h.result.fell ? " (fell)" : "", loop_summary(h));
     } else {
-      spdlog::warn("study {} trial {}: {}; {}", c.study_id(), c.trial_id(), h.error, loop_summary(h));
+      spdlog::warn("study {} trial {}: {}; {}", c.id.study_id, c.id.trial_id, h.error, loop_summary(h));
     }
-    msg::RolloutReport r = to_report(h);
-    r.store_id(c.store_id());  // the optimizer counts only reports of its own store
-    r.study_id(c.study_id());
-    r.trial_id(c.trial_id());
-    r.attempt(c.attempt());
-    r.worker_id(options_.id);
-    r.wall_time_s(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    domain::RolloutReport r = to_report(h);
+    r.id = c.id;  // with its store: the optimizer counts only reports of its own store
+    r.worker_id = options_.id;
+    r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return r;
   }
 

@@ -22,6 +22,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/dds/security.hpp"
@@ -71,6 +72,25 @@ double seconds_between(Clock::time_point from, Clock::time_point to) {
   return std::chrono::duration<double>(to - from).count();
 }
 
+// What a sample is, for the log line of one that cannot be taken.
+std::string describe(const Sample& sample) {
+  return std::visit(
+      [](const auto& e) -> std::string {
+        using T = std::decay_t<decltype(e)>;
+        if constexpr (std::is_same_v<T, msg::StudyCommand>) {
+          return fmt::format("command from {}", e.client_id().to_string());
+        } else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) {
+          return fmt::format("report for study {} trial {} from {}", e.sample.study_id(), e.sample.trial_id(),
+                             e.sample.worker_id().to_string());
+        } else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) {
+          return fmt::format("worker announcement {}", e.sample.worker_id().to_string());
+        } else {
+          return "event";
+        }
+      },
+      sample);
+}
+
 // Hands one sample to the coordinator. A store that cannot be written stops the service (the caller's
 // transaction rolls back, nothing unrecorded was acknowledged); any other error drops only this sample.
 void dispatch(Coordinator& coordinator, Event& event) {
@@ -79,12 +99,20 @@ void dispatch(Coordinator& coordinator, Event& event) {
     std::visit(
         [&](auto& e) {
           using T = std::decay_t<decltype(e)>;
-          if constexpr (std::is_same_v<T, msg::StudyCommand>) coordinator.handle_command(e, now);
-          else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) coordinator.handle_report(e.sample, now, e.sender);
-          else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) coordinator.handle_worker(e.sample, now, e.sender);
-          else if constexpr (std::is_same_v<T, WorkerGone>) coordinator.handle_worker_gone(e.key, now, e.disposed_by);
+          // The wire stops here: the coordinator sees domain values only (dds::from_wire, convert.hpp).
+          if constexpr (std::is_same_v<T, msg::StudyCommand>) {
+            coordinator.handle_command(dds::from_wire(e), now);
+          } else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) {
+            coordinator.handle_report(dds::from_wire(e.sample), now, e.sender);
+          } else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) {
+            coordinator.handle_worker(dds::from_wire(e.sample), now, e.sender);
+          } else if constexpr (std::is_same_v<T, WorkerGone>) {
+            coordinator.handle_worker_gone(e.key, now, e.disposed_by);
+          }
         },
         event.sample);
+  } catch (const dds::WireError& e) {
+    coordinator.reject_sample(describe(event.sample), e.what());
   } catch (const study::StoreWriteError&) {
     throw;  // disk full, read-only store: stop and say so (run_reporting_errors)
   } catch (const std::exception& e) {
@@ -105,14 +133,14 @@ int default_model_threads() {
 class DdsOutbox final : public Outbox {
  public:
   explicit DdsOutbox(dds::Participant& p) : candidates_(p), trials_(p), states_(p), replies_(p), specs_(p) {}
-  void send_candidate(const msg::Candidate& c) override { check(candidates_.write(c), "candidate"); }
-  void retire_candidate(const msg::Candidate& c) override { candidates_.unregister(c); }
-  void publish_trial(const msg::TrialRecord& t) override { check(trials_.write(t), "trial record"); }
-  void retire_trial(const msg::TrialRecord& t) override { trials_.unregister(t); }
-  void publish_state(const msg::StudyState& s) override { check(states_.write(s), "study state"); }
-  void reply(const msg::CommandReply& r) override { check(replies_.write(r), "command reply"); }
-  void publish_spec(const msg::StudySpecSample& s) override { check(specs_.write(s), "study spec"); }
-  void retire_spec(const msg::StudySpecSample& s) override { specs_.unregister(s); }
+  void send_candidate(const domain::Candidate& c) override { check(candidates_.write(dds::to_wire(c)), "candidate"); }
+  void retire_candidate(const domain::Candidate& c) override { candidates_.unregister(dds::to_wire(c)); }
+  void publish_trial(const domain::TrialRecord& t) override { check(trials_.write(dds::to_wire(t)), "trial record"); }
+  void retire_trial(const domain::TrialRecord& t) override { trials_.unregister(dds::to_wire(t)); }
+  void publish_state(const domain::StudyState& s) override { check(states_.write(dds::to_wire(s)), "study state"); }
+  void reply(const domain::CommandReply& r) override { check(replies_.write(dds::to_wire(r)), "command reply"); }
+  void publish_spec(const domain::SpecPublication& s) override { check(specs_.write(dds::to_wire(s)), "study spec"); }
+  void retire_spec(const domain::SpecPublication& s) override { specs_.unregister(dds::to_wire(s)); }
 
   // Gives what was already published, and so acknowledged by a committed transaction, up to `timeout` to
   // reach its readers. Called before the service stops on a store error: a study accepted a few

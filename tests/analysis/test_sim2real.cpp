@@ -17,15 +17,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json report(bool hardware, double feedback, double distance, double pitch) {
-  const double contact = 0.05, periodicity = 0.01;
-  return {{"ok", true},
-          {"fell", false},
-          {"worker_kind", hardware ? "hardware" : "sim"},
-          {"cost", feedback + distance + pitch + contact + periodicity},
-          {"terms",
-           {{"feedback", feedback}, {"distance", distance}, {"pitch", pitch}, {"contact", contact},
-            {"periodicity", periodicity}}}};
+domain::RolloutReport report(int study, int trial, bool hardware, double feedback, double distance, double pitch) {
+  domain::RolloutReport r;
+  r.id.study_id = study;
+  r.id.trial_id = trial;
+  r.worker_id = hardware ? "robot" : "sim";
+  r.worker_kind = hardware ? domain::WorkerKind::kHardware : domain::WorkerKind::kSimulation;
+  r.summary.terms = CostTerms{feedback, distance, pitch, 0.05, 0.01};
+  r.summary.cost = feedback + distance + pitch + 0.05 + 0.01;
+  return r;
 }
 
 class Sim2RealTest : public ::testing::Test {
@@ -48,9 +48,9 @@ class Sim2RealTest : public ::testing::Test {
       trials.push_back(t);
     }
     store.add_trials(id, trials);
-    for (int i = 0; i < 4; ++i) store.complete_trial(id, i, true, 0, report(false, 0.1 * (i + 1), 1.6, 0.8), 1.7e9);
+    for (int i = 0; i < 4; ++i) store.complete_trial(report(id, i, false, 0.1 * (i + 1), 1.6, 0.8), 1.7e9);
     const double hw_feedback[] = {0.40, 0.45, 0.50};
-    for (int i = 0; i < 3; ++i) store.complete_trial(id, 4 + i, true, 0, report(true, hw_feedback[i], 2.0 + 0.1 * i, 0.9), 1.7e9);
+    for (int i = 0; i < 3; ++i) store.complete_trial(report(id, 4 + i, true, hw_feedback[i], 2.0 + 0.1 * i, 0.9), 1.7e9);
   }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;

@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
     {
       std::lock_guard<std::mutex> lock(mutex);
       if (got) {
-        std::cout << nlohmann::json{{"ok", got->ok()}, {"outcome", transport::to_string(got->outcome())}, {"error", got->error().to_string()}, {"worker_id", got->worker_id().to_string()}}.dump()
+        std::cout << nlohmann::json{{"ok", got->ok()}, {"outcome", cpgmatch::domain::to_string(transport::from_wire(*got).outcome)}, {"error", got->error().to_string()}, {"worker_id", got->worker_id().to_string()}}.dump()
                   << std::endl;
         return 0;
       }

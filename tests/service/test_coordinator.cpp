@@ -13,23 +13,23 @@
 #include <set>
 #include <vector>
 
-#include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/domain/worker_identity.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 
 namespace cpgmatch::service {
 namespace {
 
 struct RecordingOutbox : Outbox {
-  std::vector<msg::Candidate> candidates, retired;
-  std::vector<msg::TrialRecord> trials, retired_trials;
-  std::vector<msg::StudyState> states;
-  std::vector<msg::CommandReply> replies;
-  void send_candidate(const msg::Candidate& c) override { candidates.push_back(c); }
-  void retire_candidate(const msg::Candidate& c) override { retired.push_back(c); }
-  void publish_trial(const msg::TrialRecord& t) override { trials.push_back(t); }
-  void retire_trial(const msg::TrialRecord& t) override { retired_trials.push_back(t); }
-  void publish_state(const msg::StudyState& s) override { states.push_back(s); }
-  void reply(const msg::CommandReply& r) override { replies.push_back(r); }
+  std::vector<domain::Candidate> candidates, retired;
+  std::vector<domain::TrialRecord> trials, retired_trials;
+  std::vector<domain::StudyState> states;
+  std::vector<domain::CommandReply> replies;
+  void send_candidate(const domain::Candidate& c) override { candidates.push_back(c); }
+  void retire_candidate(const domain::Candidate& c) override { retired.push_back(c); }
+  void publish_trial(const domain::TrialRecord& t) override { trials.push_back(t); }
+  void retire_trial(const domain::TrialRecord& t) override { retired_trials.push_back(t); }
+  void publish_state(const domain::StudyState& s) override { states.push_back(s); }
+  void reply(const domain::CommandReply& r) override { replies.push_back(r); }
 };
 
 class CoordinatorTest : public ::testing::Test {
@@ -61,15 +61,15 @@ class CoordinatorTest : public ::testing::Test {
                                                  [this](const std::string& m) { warnings_.push_back(m); });
   }
   int submit(int budget, int initial) {
-    msg::StudyCommand c;
-    c.correlation_id(++correlation_);
-    c.client_id("test");
-    c.kind(msg::COMMAND_SUBMIT);
-    c.study_yaml("name: t\nbudget: " + std::to_string(budget) + "\ninitial_points: " + std::to_string(initial) +
-                 "\nrollout: {entrain_s: 1, eval_s: 1}\n" + extra_study_yaml_);
+    domain::StudyCommand c;
+    c.correlation_id = ++correlation_;
+    c.client_id = "test";
+    c.kind = domain::CommandKind::kSubmit;
+    c.study_yaml = "name: t\nbudget: " + std::to_string(budget) + "\ninitial_points: " + std::to_string(initial) +
+                 "\nrollout: {entrain_s: 1, eval_s: 1}\n" + extra_study_yaml_;
     coordinator_->handle_command(c, now_);
-    EXPECT_TRUE(out_.replies.back().ok()) << out_.replies.back().message().to_string();
-    return static_cast<int>(out_.replies.back().study_id());
+    EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
+    return static_cast<int>(out_.replies.back().study_id);
   }
   std::string extra_study_yaml_;  // appended to submit()'s study file
   int fall_every_ = 0;            // one_slot_study: every n-th trial falls (0: none)
@@ -82,25 +82,25 @@ class CoordinatorTest : public ::testing::Test {
     store_.reset();
     for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path_ + suffix);
     open();
-    msg::StudyCommand c;
-    c.correlation_id(++correlation_);
-    c.client_id("test");
-    c.kind(msg::COMMAND_SUBMIT);
-    c.study_yaml("name: t\nbudget: 24\ninitial_points: 6\nlockstep: " + std::to_string(lockstep) +
-                 "\nrollout: {entrain_s: 1, eval_s: 1}\n");
+    domain::StudyCommand c;
+    c.correlation_id = ++correlation_;
+    c.client_id = "test";
+    c.kind = domain::CommandKind::kSubmit;
+    c.study_yaml = "name: t\nbudget: 24\ninitial_points: 6\nlockstep: " + std::to_string(lockstep) +
+                 "\nrollout: {entrain_s: 1, eval_s: 1}\n";
     coordinator_->handle_command(c, now_);
-    EXPECT_TRUE(out_.replies.back().ok()) << out_.replies.back().message().to_string();
+    EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
     worker("a", 1);
     worker("b", 1);
     settle(now_ += 0.01);
     std::map<int, std::map<std::string, double>> issued;
-    std::map<int, msg::Candidate> outstanding;
+    std::map<int, domain::Candidate> outstanding;
     std::size_t seen = 0;
     for (int step = 0; step < 200; ++step) {
       for (; seen < out_.candidates.size(); ++seen) {
-        const msg::Candidate& cand = out_.candidates[seen];
-        issued[static_cast<int>(cand.trial_id())] = dds::from_wire(cand.parameters());
-        outstanding[static_cast<int>(cand.trial_id())] = cand;
+        const domain::Candidate& cand = out_.candidates[seen];
+        issued[cand.id.trial_id] = cand.parameters;
+        outstanding[cand.id.trial_id] = cand;
       }
       if (outstanding.empty()) break;
       if (step == restart_at_step) {
@@ -113,9 +113,9 @@ class CoordinatorTest : public ::testing::Test {
         seen = 0;
         outstanding.clear();
         for (; seen < out_.candidates.size(); ++seen) {
-          const msg::Candidate& cand = out_.candidates[seen];
-          EXPECT_EQ(dds::from_wire(cand.parameters()), issued.at(static_cast<int>(cand.trial_id())));
-          outstanding[static_cast<int>(cand.trial_id())] = cand;
+          const domain::Candidate& cand = out_.candidates[seen];
+          EXPECT_EQ(cand.parameters, issued.at(cand.id.trial_id));
+          outstanding[cand.id.trial_id] = cand;
         }
       }
       const auto pick = newest_first ? std::prev(outstanding.end()) : outstanding.begin();
@@ -138,37 +138,36 @@ class CoordinatorTest : public ::testing::Test {
     }
   }
   void worker(const std::string& id, int slots, const std::optional<std::string>& identity = std::nullopt) {
-    msg::WorkerAnnouncement w;
-    w.worker_id(id);
-    w.worker_key(dds::worker_key(id));
-    w.slots(static_cast<std::uint32_t>(slots));
-    w.accepting(true);
+    domain::WorkerAnnouncement w;
+    w.worker_id = id;
+    w.worker_key = domain::worker_key(id);
+    w.slots = slots;
+    w.accepting = true;
     coordinator_->handle_worker(w, now_, identity);
   }
   // Candidates sent so far to `worker_id`.
-  std::vector<msg::Candidate> sent_to(const std::string& worker_id) const {
-    std::vector<msg::Candidate> to;
+  std::vector<domain::Candidate> sent_to(const std::string& worker_id) const {
+    std::vector<domain::Candidate> to;
     for (const auto& c : out_.candidates) {
-      if (c.worker_id().to_string() == worker_id) to.push_back(c);
+      if (c.worker_id == worker_id) to.push_back(c);
     }
     return to;
   }
-  msg::RolloutReport report_for(const msg::Candidate& c, double cost) {
-    msg::RolloutReport r;
-    r.study_id(c.study_id());
-    r.trial_id(c.trial_id());
-    r.attempt(c.attempt());
-    r.worker_id(c.worker_id());
-    r.ok(true);
-    r.cost(cost);
+  domain::RolloutReport report_for(const domain::Candidate& c, double cost) {
+    domain::RolloutReport r;
+    r.id = c.id;
+    r.worker_id = c.worker_id;
+    r.summary.cost = cost;
+    r.summary.terms = CostTerms{};  // zero terms, nothing moved: a synthetic measurement
+    r.summary.distance_m = 0.0;
     return r;
   }
   // A report of `outcome` for a candidate: refused, plant_fault or diverged did not measure the point.
-  msg::RolloutReport unspent_report(const msg::Candidate& c, msg::RolloutOutcome outcome, const std::string& why) {
-    msg::RolloutReport r = report_for(c, std::nan(""));
-    r.ok(false);
-    r.outcome(outcome);
-    r.error(why);
+  domain::RolloutReport unspent_report(const domain::Candidate& c, domain::Outcome outcome, const std::string& why) {
+    domain::RolloutReport r = report_for(c, std::nan(""));
+    // ok follows the outcome
+    r.outcome = outcome;
+    r.error = why;
     return r;
   }
   // Answers every candidate sent so far that has not been answered yet.
@@ -199,23 +198,23 @@ TEST_F(CoordinatorTest, FillsEveryFreeSlotAndFinishesWithExactlyTheBudget) {
   worker("a", 3);
   worker("b", 2);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 5u);  // every slot busy
+  ASSERT_EQ(out_.candidates.size(), 5);  // every slot busy
   int to_a = 0;
-  for (const auto& c : out_.candidates) to_a += c.worker_id().to_string() == "a";
+  for (const auto& c : out_.candidates) to_a += c.worker_id == "a";
   EXPECT_EQ(to_a, 3);
   for (int round = 0; round < 10 && !coordinator_->idle(); ++round) {
     answer_all();
     coordinator_->tick(now_ += 0.2);
   }
-  EXPECT_EQ(out_.candidates.size(), 10u);
-  EXPECT_EQ(out_.trials.size(), 10u);
+  EXPECT_EQ(out_.candidates.size(), 10);
+  EXPECT_EQ(out_.trials.size(), 10);
   const auto done = store_->load(id);
   ASSERT_TRUE(done);
   EXPECT_EQ(done->state, "done");
-  EXPECT_EQ(out_.states.back().completed(), 10u);
-  EXPECT_EQ(out_.states.back().state(), msg::STUDY_DONE);
+  EXPECT_EQ(out_.states.back().completed, 10);
+  EXPECT_EQ(out_.states.back().status, domain::StudyStatus::kDone);
   // Every candidate carries the complete CPG parameter set.
-  EXPECT_EQ(out_.candidates[0].parameters().size(), 8u);
+  EXPECT_EQ(out_.candidates[0].parameters.size(), 8);
 }
 
 // A study with two one-slot workers whose reports are answered oldest-first or newest-first; the cost is
@@ -226,8 +225,8 @@ std::map<int, std::map<std::string, double>> two_worker_study(CoordinatorTest& t
 TEST_F(CoordinatorTest, ALockstepStudyIsTheSameWhateverOrderItsReportsArriveIn) {
   const auto oldest = two_worker_study(*this, 2, false);
   const auto newest = two_worker_study(*this, 2, true);
-  ASSERT_EQ(oldest.size(), 24u);
-  ASSERT_EQ(newest.size(), 24u);
+  ASSERT_EQ(oldest.size(), 24);
+  ASSERT_EQ(newest.size(), 24);
   for (const auto& [trial, point] : oldest) EXPECT_EQ(point, newest.at(trial)) << "trial " << trial;
   // Asynchronous, the same two orders take different paths once the model is used: what lockstep is for.
   const auto async_oldest = two_worker_study(*this, 0, false);
@@ -250,71 +249,71 @@ TEST_F(CoordinatorTest, APausedLockstepStudyStartsNoModelJobsAndGoesOnWhenResume
   int jobs = 0;
   model_job_hook_ = [&jobs](int) { ++jobs; };
   open();  // with the hook
-  msg::StudyCommand c;
-  c.correlation_id(++correlation_);
-  c.client_id("test");
-  c.kind(msg::COMMAND_SUBMIT);
-  c.study_yaml("name: t\nbudget: 10\ninitial_points: 4\nlockstep: 2\nrollout: {entrain_s: 1, eval_s: 1}\n");
+  domain::StudyCommand c;
+  c.correlation_id = ++correlation_;
+  c.client_id = "test";
+  c.kind = domain::CommandKind::kSubmit;
+  c.study_yaml = "name: t\nbudget: 10\ninitial_points: 4\nlockstep: 2\nrollout: {entrain_s: 1, eval_s: 1}\n";
   coordinator_->handle_command(c, now_);
-  const auto id = out_.replies.back().study_id();
+  const auto id = out_.replies.back().study_id;
   worker("a", 2);
   settle(now_ += 0.01);
-  ASSERT_EQ(out_.candidates.size(), 2u);
-  msg::StudyCommand pause;
-  pause.correlation_id(++correlation_);
-  pause.client_id("test");
-  pause.kind(msg::COMMAND_PAUSE);
-  pause.study_id(id);
+  ASSERT_EQ(out_.candidates.size(), 2);
+  domain::StudyCommand pause;
+  pause.correlation_id = ++correlation_;
+  pause.client_id = "test";
+  pause.kind = domain::CommandKind::kPause;
+  pause.study_id = id;
   coordinator_->handle_command(pause, now_);
   answer_all();  // both reports arrive while paused: they wait, untold
   const int jobs_when_paused = jobs;
   for (int i = 0; i < 20; ++i) settle(now_ += 0.1);
   EXPECT_EQ(jobs, jobs_when_paused) << "a paused lockstep study ran model jobs";
-  EXPECT_EQ(out_.candidates.size(), 2u);
-  pause.kind(msg::COMMAND_RESUME);
-  pause.correlation_id(++correlation_);
+  EXPECT_EQ(out_.candidates.size(), 2);
+  pause.kind = domain::CommandKind::kResume;
+  pause.correlation_id = ++correlation_;
   coordinator_->handle_command(pause, now_);
-  for (int round = 0; round < 40 && out_.states.back().completed() < 10u; ++round) {
+  for (int round = 0; round < 40 && out_.states.back().completed < 10u; ++round) {
     answer_all();
     settle(now_ += 0.1);
   }
-  EXPECT_EQ(out_.states.back().completed(), 10u);
-  EXPECT_EQ(out_.candidates.size(), 10u);
+  EXPECT_EQ(out_.states.back().completed, 10);
+  EXPECT_EQ(out_.candidates.size(), 10);
 }
 
 TEST_F(CoordinatorTest, DuplicateAndForgedReportsAreNotCounted) {
   submit(5, 5);
   worker("a", 2);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 2u);
-  const msg::RolloutReport first = report_for(out_.candidates[0], 3.0);
+  ASSERT_EQ(out_.candidates.size(), 2);
+  const domain::RolloutReport first = report_for(out_.candidates[0], 3.0);
   coordinator_->handle_report(first, now_);
   coordinator_->handle_report(first, now_);  // duplicate
-  msg::RolloutReport future = report_for(out_.candidates[1], 2.0);
-  future.attempt(7);  // an attempt that was never issued
+  domain::RolloutReport future = report_for(out_.candidates[1], 2.0);
+  future.id.attempt = 7;  // an attempt that was never issued
   coordinator_->handle_report(future, now_);
-  msg::RolloutReport never = report_for(out_.candidates[1], 2.0);
-  never.trial_id(99);
+  domain::RolloutReport never = report_for(out_.candidates[1], 2.0);
+  never.id.trial_id = 99;
   coordinator_->handle_report(never, now_);
-  EXPECT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(out_.trials.size(), 1);
   EXPECT_EQ(coordinator_->rejected_samples(), 2u);
   coordinator_->tick(now_ += 1);
-  EXPECT_EQ(out_.states.back().completed(), 1u);
+  EXPECT_EQ(out_.states.back().completed, 1);
 }
 
 TEST_F(CoordinatorTest, ANonPositiveCostIsRefusedInALogCostStudyAndTheTrialCanStillBeAnswered) {
   submit(3, 3);  // studies model log(cost) by default
   worker("a", 1);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 1u);
+  ASSERT_EQ(out_.candidates.size(), 1);
   coordinator_->handle_report(report_for(out_.candidates[0], 0.0), now_);
   coordinator_->handle_report(report_for(out_.candidates[0], -2.5), now_);
-  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(out_.trials.size(), 0);
   EXPECT_EQ(coordinator_->rejected_samples(), 2u);
   ASSERT_FALSE(warnings_.empty());
   EXPECT_NE(warnings_.back().find("must be > 0"), std::string::npos) << warnings_.back();
   coordinator_->handle_report(report_for(out_.candidates[0], 1.5), now_);  // the real result still counts
-  EXPECT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(out_.trials.size(), 1);
 }
 
 TEST_F(CoordinatorTest, AReportCountsOnlyFromTheWorkerItsCandidateWasAssignedTo) {
@@ -322,23 +321,23 @@ TEST_F(CoordinatorTest, AReportCountsOnlyFromTheWorkerItsCandidateWasAssignedTo)
   worker("a", 1);
   worker("b", 1);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 2u);
-  const msg::Candidate to_a = out_.candidates[0].worker_id().to_string() == "a" ? out_.candidates[0] : out_.candidates[1];
+  ASSERT_EQ(out_.candidates.size(), 2);
+  const domain::Candidate to_a = out_.candidates[0].worker_id == "a" ? out_.candidates[0] : out_.candidates[1];
   // Any participant can read the candidates; answering one that went to someone else must not count.
-  msg::RolloutReport forged = report_for(to_a, -1000.0);
-  forged.worker_id("b");  // another live worker
+  domain::RolloutReport forged = report_for(to_a, -1000.0);
+  forged.worker_id = "b";  // another live worker
   coordinator_->handle_report(forged, now_);
-  forged.worker_id("intruder");  // no worker at all
+  forged.worker_id = "intruder";  // no worker at all
   coordinator_->handle_report(forged, now_);
-  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(out_.trials.size(), 0);
   EXPECT_EQ(coordinator_->rejected_samples(), 2u);
   // The assigned worker's own report still counts, once.
   coordinator_->handle_report(report_for(to_a, 1.0), now_);
-  ASSERT_EQ(out_.trials.size(), 1u);
-  EXPECT_EQ(out_.trials[0].report().worker_id().to_string(), "a");
-  EXPECT_DOUBLE_EQ(out_.trials[0].report().cost(), 1.0);
+  ASSERT_EQ(out_.trials.size(), 1);
+  EXPECT_EQ(out_.trials[0].report.worker_id, "a");
+  EXPECT_DOUBLE_EQ(out_.trials[0].report.summary.cost, 1.0);
   coordinator_->tick(now_ += 1);
-  EXPECT_EQ(out_.states.back().completed(), 1u);
+  EXPECT_EQ(out_.states.back().completed, 1);
 }
 
 TEST_F(CoordinatorTest, WithSecurityAReportCountsOnlyWhenTheSendersCertificateOwnsItsWorkerId) {
@@ -358,27 +357,27 @@ TEST_F(CoordinatorTest, WithSecurityAReportCountsOnlyWhenTheSendersCertificateOw
   worker("node12/2", 1, "node12");  // an instance of identity node12
   EXPECT_EQ(coordinator_->live_workers(), 2);
   coordinator_->tick(now_);
-  ASSERT_EQ(sent_to("a").size(), 1u);
-  ASSERT_EQ(sent_to("node12/2").size(), 1u);
-  const msg::Candidate to_a = sent_to("a")[0];
+  ASSERT_EQ(sent_to("a").size(), 1);
+  ASSERT_EQ(sent_to("node12/2").size(), 1);
+  const domain::Candidate to_a = sent_to("a")[0];
   // A participant with a valid certificate for another identity writes a's report: never counted, whatever
   // its cost; nor one whose sender is unknown.
-  const msg::RolloutReport forged = report_for(to_a, 1e-6);
+  const domain::RolloutReport forged = report_for(to_a, 1e-6);
   coordinator_->handle_report(forged, now_, std::string("mallory"));
   coordinator_->handle_report(forged, now_, std::string("node12"));
   coordinator_->handle_report(forged, now_, std::nullopt);
   coordinator_->handle_report(forged, now_, std::string(""));
-  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(out_.trials.size(), 0);
   EXPECT_EQ(coordinator_->rejected_samples(), 7u);
   EXPECT_NE(warnings_.back().find("certificate is not known"), std::string::npos) << warnings_.back();
   // The owners' own reports count, once each.
   coordinator_->handle_report(report_for(to_a, 2.0), now_, std::string("a"));
   coordinator_->handle_report(report_for(sent_to("node12/2")[0], 3.0), now_, std::string("node12"));
-  ASSERT_EQ(out_.trials.size(), 2u);
-  EXPECT_DOUBLE_EQ(out_.trials[0].report().cost(), 2.0);
+  ASSERT_EQ(out_.trials.size(), 2);
+  EXPECT_DOUBLE_EQ(out_.trials[0].report.summary.cost, 2.0);
   coordinator_->tick(now_ += 1);
-  EXPECT_EQ(out_.states.back().completed(), 2u);
-  EXPECT_EQ(out_.states.back().best_cost(), 2.0);
+  EXPECT_EQ(out_.states.back().completed, 2);
+  EXPECT_EQ(out_.states.back().best_cost, 2.0);
 }
 
 TEST_F(CoordinatorTest, WithSecurityOnlyTheWorkersOwnIdentityMayDisposeItsAnnouncement) {
@@ -387,17 +386,17 @@ TEST_F(CoordinatorTest, WithSecurityOnlyTheWorkersOwnIdentityMayDisposeItsAnnoun
   submit(4, 4);
   worker("a", 1, "a");
   coordinator_->tick(now_);
-  ASSERT_EQ(sent_to("a").size(), 1u);
-  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string("mallory"));
-  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string(""));
+  ASSERT_EQ(sent_to("a").size(), 1);
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, std::string("mallory"));
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, std::string(""));
   EXPECT_EQ(coordinator_->live_workers(), 1);
   EXPECT_EQ(coordinator_->rejected_samples(), 2u);
   coordinator_->tick(now_ += 0.1);
-  EXPECT_EQ(out_.candidates.size(), 1u);  // nothing re-issued
-  coordinator_->handle_worker_gone(dds::worker_key("a"), now_, std::string("a"));  // its own dispose
+  EXPECT_EQ(out_.candidates.size(), 1);  // nothing re-issued
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, std::string("a"));  // its own dispose
   EXPECT_EQ(coordinator_->live_workers(), 0);
   worker("b", 1, "b");
-  coordinator_->handle_worker_gone(dds::worker_key("b"), now_, std::nullopt);  // no writer left: no claim
+  coordinator_->handle_worker_gone(domain::worker_key("b"), now_, std::nullopt);  // no writer left: no claim
   EXPECT_EQ(coordinator_->live_workers(), 0);
 }
 
@@ -405,9 +404,9 @@ TEST_F(CoordinatorTest, WithoutSecurityTheSendersIdentityIsNotChecked) {
   submit(2, 2);
   worker("a", 1, "someone-else");  // there is no identity without security: taken as written
   coordinator_->tick(now_);
-  ASSERT_EQ(sent_to("a").size(), 1u);
+  ASSERT_EQ(sent_to("a").size(), 1);
   coordinator_->handle_report(report_for(sent_to("a")[0], 2.0), now_, std::nullopt);
-  EXPECT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(out_.trials.size(), 1);
   EXPECT_EQ(coordinator_->rejected_samples(), 0u);
 }
 
@@ -415,7 +414,7 @@ TEST_F(CoordinatorTest, AWorkerWhoseLeaseExpiredGetsOneCandidateAtATimeUntilItRe
   submit(40, 40);
   worker("greedy", 8);
   coordinator_->tick(now_);
-  ASSERT_EQ(sent_to("greedy").size(), 8u);
+  ASSERT_EQ(sent_to("greedy").size(), 8);
   // It keeps announcing 8 slots but never answers: the leases (60 s + 3 x 2 s) run out.
   for (int i = 0; i < 67; ++i) {
     worker("greedy", 8);
@@ -423,111 +422,111 @@ TEST_F(CoordinatorTest, AWorkerWhoseLeaseExpiredGetsOneCandidateAtATimeUntilItRe
   }
   EXPECT_TRUE(coordinator_->on_probation("greedy"));
   // Its 8 candidates were taken back; it got one of them again, not all 8.
-  ASSERT_EQ(sent_to("greedy").size(), 9u);
-  EXPECT_EQ(out_.candidates.back().attempt(), 1u);
+  ASSERT_EQ(sent_to("greedy").size(), 9);
+  EXPECT_EQ(out_.candidates.back().id.attempt, 1);
   // Leaving and rejoining the domain does not clear it.
-  coordinator_->handle_worker_gone(dds::worker_key("greedy"), now_);
+  coordinator_->handle_worker_gone(domain::worker_key("greedy"), now_);
   worker("greedy", 8);
   coordinator_->tick(now_ += 0.1);
-  EXPECT_EQ(sent_to("greedy").size(), 10u);  // the one it held went back and came again: still one at a time
+  EXPECT_EQ(sent_to("greedy").size(), 10);  // the one it held went back and came again: still one at a time
   coordinator_->tick(now_ += 0.1);
-  EXPECT_EQ(sent_to("greedy").size(), 10u);
+  EXPECT_EQ(sent_to("greedy").size(), 10);
   // Another worker gets the rest of the work meanwhile.
   worker("honest", 4);
   coordinator_->tick(now_ += 0.1);
-  EXPECT_EQ(sent_to("honest").size(), 4u);
+  EXPECT_EQ(sent_to("honest").size(), 4);
   // Its report (for the attempt it holds) ends the probation: all 8 slots again.
   coordinator_->handle_report(report_for(out_.candidates[out_.candidates.size() - 5], 1.0), now_);
-  ASSERT_EQ(out_.trials.size(), 1u);
+  ASSERT_EQ(out_.trials.size(), 1);
   EXPECT_FALSE(coordinator_->on_probation("greedy"));
   coordinator_->tick(now_ += 0.1);
-  EXPECT_EQ(sent_to("greedy").size(), 18u);
+  EXPECT_EQ(sent_to("greedy").size(), 18);
 }
 
 TEST_F(CoordinatorTest, AWorkerOnProbationGetsWorkOnlyWhenNoOtherWorkerHasAFreeSlot) {
   submit(3, 3);
   worker("greedy", 3);
   coordinator_->tick(now_);
-  ASSERT_EQ(sent_to("greedy").size(), 3u);
+  ASSERT_EQ(sent_to("greedy").size(), 3);
   for (int i = 0; i < 67; ++i) {  // its three leases expire; it holds one of them again
     worker("greedy", 3);
     coordinator_->tick(now_ += 1.0);
   }
   ASSERT_TRUE(coordinator_->on_probation("greedy"));
-  ASSERT_EQ(sent_to("greedy").size(), 4u);
+  ASSERT_EQ(sent_to("greedy").size(), 4);
   // An honest worker with 2 slots joins: it gets the two waiting re-issues. When greedy's lease expires
   // again, that trial goes to the honest worker (once it has a free slot), not back to greedy.
   worker("honest", 2);
   coordinator_->tick(now_ += 0.1);
-  ASSERT_EQ(sent_to("honest").size(), 2u);
+  ASSERT_EQ(sent_to("honest").size(), 2);
   for (const auto& c : sent_to("honest")) coordinator_->handle_report(report_for(c, 1.0), now_);
   for (int i = 0; i < 67; ++i) {
     worker("greedy", 3);
     worker("honest", 2);
     coordinator_->tick(now_ += 1.0);
   }
-  ASSERT_EQ(sent_to("honest").size(), 3u);
-  EXPECT_EQ(sent_to("honest").back().trial_id(), sent_to("greedy").back().trial_id());
-  EXPECT_EQ(sent_to("greedy").size(), 4u);
+  ASSERT_EQ(sent_to("honest").size(), 3);
+  EXPECT_EQ(sent_to("honest").back().id.trial_id, sent_to("greedy").back().id.trial_id);
+  EXPECT_EQ(sent_to("greedy").size(), 4);
   coordinator_->handle_report(report_for(sent_to("honest").back(), 1.0), now_);
   coordinator_->tick(now_ += 1.0);
-  EXPECT_EQ(out_.states.back().state(), msg::STUDY_DONE);
+  EXPECT_EQ(out_.states.back().status, domain::StudyStatus::kDone);
 }
 
 TEST_F(CoordinatorTest, AfterARestartTheStoredAssignmentStillDecidesWhoMayReport) {
   submit(4, 4);
   worker("a", 1);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 1u);
-  const msg::Candidate in_flight = out_.candidates[0];
+  ASSERT_EQ(out_.candidates.size(), 1);
+  const domain::Candidate in_flight = out_.candidates[0];
   open();  // restart on the same store: the trial is in flight, assigned to a in the store
   coordinator_->resume_from_store(now_);
-  msg::RolloutReport forged = report_for(in_flight, -1000.0);
-  forged.worker_id("intruder");
+  domain::RolloutReport forged = report_for(in_flight, -1000.0);
+  forged.worker_id = "intruder";
   coordinator_->handle_report(forged, now_);
-  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(out_.trials.size(), 0);
   coordinator_->handle_report(report_for(in_flight, 1.0), now_);
-  EXPECT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(out_.trials.size(), 1);
 }
 
 TEST_F(CoordinatorTest, ALostWorkersCandidatesGoToAnotherWorker) {
   submit(6, 6);
   worker("a", 2);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 2u);
+  ASSERT_EQ(out_.candidates.size(), 2);
   worker("b", 2);
-  coordinator_->handle_worker_gone(dds::worker_key("a"), now_);
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_);
   coordinator_->tick(now_ += 0.1);
   // The two re-issued candidates (attempt 1) go first, then new ones fill b's remaining slots... b has 2.
-  ASSERT_EQ(out_.candidates.size(), 4u);
-  EXPECT_EQ(out_.candidates[2].worker_id().to_string(), "b");
-  EXPECT_EQ(out_.candidates[2].attempt(), 1u);
-  EXPECT_EQ(out_.candidates[2].trial_id(), out_.candidates[0].trial_id());
+  ASSERT_EQ(out_.candidates.size(), 4);
+  EXPECT_EQ(out_.candidates[2].worker_id, "b");
+  EXPECT_EQ(out_.candidates[2].id.attempt, 1);
+  EXPECT_EQ(out_.candidates[2].id.trial_id, out_.candidates[0].id.trial_id);
   // The lost worker's late report still counts once; the re-issued copy's report is then a duplicate.
   coordinator_->handle_report(report_for(out_.candidates[0], 1.0), now_);
   coordinator_->handle_report(report_for(out_.candidates[2], 1.0), now_);
-  EXPECT_EQ(out_.trials.size(), 1u);
+  EXPECT_EQ(out_.trials.size(), 1);
 }
 
 TEST_F(CoordinatorTest, SilentWorkerAndExpiredLeaseAreReissued) {
   submit(4, 4);
   worker("a", 1);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 1u);
+  ASSERT_EQ(out_.candidates.size(), 1);
   coordinator_->tick(now_ += 10.0);  // no heartbeat for 10 s: a is dropped
   EXPECT_EQ(coordinator_->live_workers(), 0);
   worker("b", 1);
   coordinator_->tick(now_ += 0.1);
-  ASSERT_EQ(out_.candidates.size(), 2u);
-  EXPECT_EQ(out_.candidates[1].attempt(), 1u);
+  ASSERT_EQ(out_.candidates.size(), 2);
+  EXPECT_EQ(out_.candidates[1].id.attempt, 1);
   // b keeps announcing but never reports: the lease (60 s + 3 x 2 s) runs out.
   for (int i = 0; i < 70; ++i) {
     worker("b", 1);
     coordinator_->tick(now_ += 1.0);
   }
-  ASSERT_GE(out_.candidates.size(), 3u);
-  EXPECT_EQ(out_.candidates[2].attempt(), 2u);
-  EXPECT_GE(out_.states.back().reissued(), 2u);
+  ASSERT_GE(out_.candidates.size(), 3);
+  EXPECT_EQ(out_.candidates[2].id.attempt, 2);
+  EXPECT_GE(out_.states.back().reissued, 2);
 }
 
 TEST_F(CoordinatorTest, RestartResumesWithoutLosingOrDoubleCounting) {
@@ -536,17 +535,17 @@ TEST_F(CoordinatorTest, RestartResumesWithoutLosingOrDoubleCounting) {
   coordinator_->tick(now_);
   answer_all();
   coordinator_->tick(now_ += 0.1);  // two more issued, still in flight
-  ASSERT_EQ(out_.candidates.size(), 4u);
-  const msg::Candidate in_flight = out_.candidates[2];
+  ASSERT_EQ(out_.candidates.size(), 4);
+  const domain::Candidate in_flight = out_.candidates[2];
 
   open();  // "crash" and restart on the same store
   coordinator_->resume_from_store(now_);
-  EXPECT_EQ(out_.trials.size(), 2u);  // the two counted trials are published again
+  EXPECT_EQ(out_.trials.size(), 2);  // the two counted trials are published again
   worker("a", 2);
   // The report of an in-flight candidate, written before the crash, arrives now and counts once.
   coordinator_->handle_report(report_for(in_flight, 0.5), now_);
   coordinator_->handle_report(report_for(in_flight, 0.5), now_);
-  EXPECT_EQ(out_.trials.size(), 3u);
+  EXPECT_EQ(out_.trials.size(), 3);
   answered_ = 0;
   for (int round = 0; round < 20 && !coordinator_->idle(); ++round) {
     coordinator_->tick(now_ += 0.1);
@@ -556,9 +555,9 @@ TEST_F(CoordinatorTest, RestartResumesWithoutLosingOrDoubleCounting) {
   const auto s = store_->load(id);
   ASSERT_TRUE(s);
   EXPECT_EQ(s->state, "done");
-  EXPECT_EQ(s->trials.size(), 8u);
+  EXPECT_EQ(s->trials.size(), 8);
   for (const auto& t : s->trials) EXPECT_EQ(t.status, study::TrialStatus::kDone);
-  EXPECT_EQ(out_.states.back().completed(), 8u);
+  EXPECT_EQ(out_.states.back().completed, 8);
 }
 
 // One worker with one slot, each candidate answered as soon as it is issued (cost from its trial id), for
@@ -580,18 +579,18 @@ std::vector<std::map<std::string, double>> CoordinatorTest::one_slot_study(int a
       worker("w", 1);
       settle(now_ += 0.01);  // the in-flight candidate goes out again
     }
-    const msg::Candidate c = out_.candidates.back();
-    if (k >= restart_after) issued.push_back(dds::from_wire(c.parameters()));
-    msg::RolloutReport r = report_for(c, 1.0 + std::sin(0.7 * c.trial_id()) + 0.1);
-    if (fall_every_ > 0 && c.trial_id() % fall_every_ == 0) {
-      r.fell(true);
-      r.outcome(msg::OUTCOME_FELL);
-      r.cost(15.0);
+    const domain::Candidate c = out_.candidates.back();
+    if (k >= restart_after) issued.push_back(c.parameters);
+    domain::RolloutReport r = report_for(c, 1.0 + std::sin(0.7 * c.id.trial_id) + 0.1);
+    if (fall_every_ > 0 && c.id.trial_id % fall_every_ == 0) {
+      // fell follows the outcome
+      r.outcome = domain::Outcome::kFell;
+      r.summary.cost = 15.0;
     }
     coordinator_->handle_report(r, now_ += 0.01);
     settle(now_ += 0.01);
   }
-  issued.push_back(dds::from_wire(out_.candidates.back().parameters()));
+  issued.push_back(out_.candidates.back().parameters);
   return issued;
 }
 
@@ -611,8 +610,8 @@ std::vector<std::map<std::string, double>> CoordinatorTest::four_slot_study(bool
   std::size_t answered = 0;
   for (int round = 0; round < 9; ++round) {
     for (const std::size_t issued = out_.candidates.size(); answered < issued; ++answered) {
-      const msg::Candidate& c = out_.candidates[answered];
-      coordinator_->handle_report(report_for(c, 1.0 + std::sin(0.7 * c.trial_id()) + 0.1), now_ += 0.01);
+      const domain::Candidate& c = out_.candidates[answered];
+      coordinator_->handle_report(report_for(c, 1.0 + std::sin(0.7 * c.id.trial_id) + 0.1), now_ += 0.01);
     }
     if (round == 8 && restart_before_the_last_job) {
       open();  // kill -9: the store is all that is left
@@ -624,7 +623,7 @@ std::vector<std::map<std::string, double>> CoordinatorTest::four_slot_study(bool
   }
   std::vector<std::map<std::string, double>> last;
   for (std::size_t i = answered; i < out_.candidates.size(); ++i) {
-    last.push_back(dds::from_wire(out_.candidates[i].parameters()));
+    last.push_back(out_.candidates[i].parameters);
   }
   return last;
 }
@@ -636,7 +635,7 @@ TEST_F(CoordinatorTest, ReportsCountedButNotYetToldWaitForOneModelJobAfterAResta
   // in one batch as the uninterrupted run's job did, and the next candidates are the same to the last bit.
   const auto uninterrupted = four_slot_study(false);
   const auto restarted = four_slot_study(true);
-  ASSERT_EQ(uninterrupted.size(), 4u);
+  ASSERT_EQ(uninterrupted.size(), 4);
   EXPECT_EQ(restarted, uninterrupted);
 }
 
@@ -646,7 +645,7 @@ TEST_F(CoordinatorTest, ARestartProposesExactlyWhatTheUninterruptedRunWould) {
   // from the saved model state and holds each stored observation exactly once.
   const auto uninterrupted = one_slot_study(42, 0);
   const auto restarted = one_slot_study(42, 36);
-  ASSERT_EQ(restarted.size(), 7u);
+  ASSERT_EQ(restarted.size(), 7);
   for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
 }
 
@@ -659,7 +658,7 @@ TEST_F(CoordinatorTest, AFallModelStudyLearnsFromReportedFallsAndRestartsExactly
   const auto uninterrupted = one_slot_study(42, 0);
   const auto restarted = one_slot_study(42, 36);
   EXPECT_NE(std::vector(uninterrupted.begin() + 31, uninterrupted.end()), std::vector(without.begin() + 31, without.end()));
-  ASSERT_EQ(restarted.size(), 7u);
+  ASSERT_EQ(restarted.size(), 7);
   for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
 }
 
@@ -671,7 +670,7 @@ TEST_F(CoordinatorTest, WithModelThreadsAOneSlotStudyProposesTheSameSequenceAndR
   const auto threaded = one_slot_study(42, 0);
   EXPECT_EQ(threaded, inline_run);
   const auto restarted = one_slot_study(42, 36);
-  ASSERT_EQ(restarted.size(), 7u);
+  ASSERT_EQ(restarted.size(), 7);
   for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], inline_run[36 + i]) << "candidate " << 36 + i;
 }
 
@@ -691,13 +690,13 @@ TEST_F(CoordinatorTest, WhileAModelJobRunsHeartbeatsCommandsAndReportsAreServed)
   EXPECT_EQ(coordinator_->model_jobs_outstanding(), 1);
   EXPECT_TRUE(out_.candidates.empty());  // the asked points are not there yet
 
-  msg::StudyCommand pause;
-  pause.correlation_id(77);
-  pause.client_id("test");
-  pause.kind(msg::COMMAND_PAUSE);
-  pause.study_id(static_cast<std::uint32_t>(id + 1));
+  domain::StudyCommand pause;
+  pause.correlation_id = 77;
+  pause.client_id = "test";
+  pause.kind = domain::CommandKind::kPause;
+  pause.study_id = static_cast<std::uint32_t>(id + 1);
   coordinator_->handle_command(pause, now_);
-  ASSERT_EQ(out_.replies.size(), 2u);  // the submit's and this one, while the job is held
+  ASSERT_EQ(out_.replies.size(), 2);  // the submit's and this one, while the job is held
   now_ += 3.0;  // b silent for 3 s > 2.5 s; a keeps announcing
   worker("a", 2);
   coordinator_->tick(now_);
@@ -707,10 +706,10 @@ TEST_F(CoordinatorTest, WhileAModelJobRunsHeartbeatsCommandsAndReportsAreServed)
   release.set_value();
   worker("a", 2);
   settle(now_ += 0.02);
-  ASSERT_EQ(out_.candidates.size(), 2u);  // a's two slots
-  for (const auto& c : out_.candidates) EXPECT_EQ(c.worker_id().to_string(), "a");
+  ASSERT_EQ(out_.candidates.size(), 2);  // a's two slots
+  for (const auto& c : out_.candidates) EXPECT_EQ(c.worker_id, "a");
   answer_all();
-  EXPECT_EQ(out_.trials.size(), 2u);
+  EXPECT_EQ(out_.trials.size(), 2);
 }
 
 TEST_F(CoordinatorTest, ReportsThatArriveWhileTheModelIsBusyAreFittedOnceTogether) {
@@ -727,12 +726,12 @@ TEST_F(CoordinatorTest, ReportsThatArriveWhileTheModelIsBusyAreFittedOnceTogethe
   const int id = submit(30, 4);
   worker("a", 4);
   settle(now_ += 0.02);
-  ASSERT_EQ(out_.candidates.size(), 4u);
+  ASSERT_EQ(out_.candidates.size(), 4);
   answer_all();  // the initial design: the next job fits the model for the first time
   settle(now_ += 0.02);
   const int fits_before = store_->load(id)->model_state.at("fits").get<int>();
   EXPECT_EQ(fits_before, 1);
-  ASSERT_EQ(out_.candidates.size(), 8u);
+  ASSERT_EQ(out_.candidates.size(), 8);
   hold->store(true);
   coordinator_->handle_report(report_for(out_.candidates[4], 0.5), now_);
   coordinator_->tick(now_ += 0.02);  // a job tells this report (one fit) and is held
@@ -762,18 +761,18 @@ TEST_F(CoordinatorTest, AFinishedStudysTrialRecordsLeaveTheTopicAfterTheGraceAnd
   coordinator_->tick(now_ += 29.0);
   EXPECT_TRUE(out_.retired_trials.empty()) << "retired before the grace period was over";
   coordinator_->tick(now_ += 2.0);
-  ASSERT_EQ(out_.retired_trials.size(), 4u);
-  for (const auto& t : out_.retired_trials) EXPECT_EQ(t.study_id(), static_cast<std::uint32_t>(done));
+  ASSERT_EQ(out_.retired_trials.size(), 4);
+  for (const auto& t : out_.retired_trials) EXPECT_EQ(t.study_id, done);
   coordinator_->tick(now_ += 60.0);
-  EXPECT_EQ(out_.retired_trials.size(), 4u);  // once, and never the open study's
+  EXPECT_EQ(out_.retired_trials.size(), 4);  // once, and never the open study's
 
   open();
   coordinator_->resume_from_store(now_);
-  for (const auto& t : out_.trials) EXPECT_EQ(t.study_id(), static_cast<std::uint32_t>(open_one));
-  EXPECT_EQ(out_.trials.size(), 4u);  // the open study's counted trials only
+  for (const auto& t : out_.trials) EXPECT_EQ(t.study_id, open_one);
+  EXPECT_EQ(out_.trials.size(), 4);  // the open study's counted trials only
   coordinator_->tick(now_ += 0.1);
   bool finished_state_published = false;  // its state (with the recommendation) is still served
-  for (const auto& st : out_.states) finished_state_published |= st.study_id() == static_cast<std::uint32_t>(done) && st.has_recommendation();
+  for (const auto& st : out_.states) finished_state_published |= st.study_id == done && st.has_recommendation;
   EXPECT_TRUE(finished_state_published);
 }
 
@@ -783,24 +782,24 @@ TEST_F(CoordinatorTest, CandidatesCarryTheStoresIdentityAndReportsForAnotherStor
   const int id = submit(6, 6);
   worker("a", 2);
   coordinator_->tick(now_ += 0.1);
-  ASSERT_EQ(out_.candidates.size(), 2u);
+  ASSERT_EQ(out_.candidates.size(), 2);
   const std::uint64_t mine = store_->store_id();
   EXPECT_NE(mine, 0u);
-  for (const auto& c : out_.candidates) EXPECT_EQ(c.store_id(), mine);
-  msg::RolloutReport foreign = report_for(out_.candidates[0], 0.1);
-  foreign.store_id(mine ^ 0x5a5a5a5a5a5a5a5aull);
+  for (const auto& c : out_.candidates) EXPECT_EQ(c.id.store_id, mine);
+  domain::RolloutReport foreign = report_for(out_.candidates[0], 0.1);
+  foreign.id.store_id = mine ^ 0x5a5a5a5a5a5a5a5aull;
   coordinator_->handle_report(foreign, now_);
-  EXPECT_EQ(out_.trials.size(), 0u);
+  EXPECT_EQ(out_.trials.size(), 0);
   EXPECT_EQ(coordinator_->foreign_reports(), 1u);
-  msg::RolloutReport own = report_for(out_.candidates[0], 0.2);
-  own.store_id(mine);
+  domain::RolloutReport own = report_for(out_.candidates[0], 0.2);
+  own.id.store_id = mine;
   coordinator_->handle_report(own, now_);
-  ASSERT_EQ(out_.trials.size(), 1u);
-  EXPECT_DOUBLE_EQ(out_.trials[0].report().cost(), 0.2);
+  ASSERT_EQ(out_.trials.size(), 1);
+  EXPECT_DOUBLE_EQ(out_.trials[0].report.summary.cost, 0.2);
   // The identity survives a restart; a new store gets another one.
   open();
   EXPECT_EQ(store_->store_id(), mine);
-  EXPECT_EQ(store_->load(id)->trials.size(), 2u);
+  EXPECT_EQ(store_->load(id)->trials.size(), 2);
   const std::string other_path = path_ + "-other.db";
   {
     study::StudyStore other(other_path);
@@ -847,13 +846,13 @@ TEST_F(CoordinatorTest, SteppingTheWallClockNeitherDropsWorkersNorFiresLeases) {
   const int id = submit(4, 4);
   worker("a", 2);
   coordinator_->tick(now_ += 0.1);
-  ASSERT_EQ(out_.candidates.size(), 2u);
+  ASSERT_EQ(out_.candidates.size(), 2);
   for (const double step : {3600.0, -7200.0}) {  // NTP or a user sets the clock an hour ahead, two back
     wall_ += step;
     worker("a", 2);
     coordinator_->tick(now_ += 0.5);  // half a second of monotonic time: nothing is due
-    EXPECT_EQ(out_.candidates.size(), 2u) << "a re-issue after a wall-clock step of " << step << " s";
-    EXPECT_EQ(out_.states.back().workers(), 1u);
+    EXPECT_EQ(out_.candidates.size(), 2) << "a re-issue after a wall-clock step of " << step << " s";
+    EXPECT_EQ(out_.states.back().workers, 1);
   }
   answer_all();
   const auto s = store_->load(id);
@@ -883,7 +882,7 @@ TEST_F(CoordinatorTest, AHugeWorkerIsFilledOverSeveralTicksAndAnotherWorkersTime
     worker("huge", 512);
     coordinator_->tick(now_ += 0.02);
     EXPECT_LE(out_.candidates.size() - before, static_cast<std::size_t>(cap)) << "tick " << ticks;  // re-issues included
-    small_dropped = out_.states.back().workers() == 1u;
+    small_dropped = out_.states.back().workers == 1u;
   }
   EXPECT_TRUE(small_dropped);
   EXPECT_LE(ticks * 0.02, CoordinatorOptions{}.worker_timeout_s + 0.1);
@@ -901,79 +900,79 @@ TEST_F(CoordinatorTest, ALargeFillIsSpreadOverTicksWithoutAskingForMorePointsTha
     EXPECT_LE(out_.candidates.size() - before, static_cast<std::size_t>(CoordinatorOptions{}.max_issues_per_tick));
     EXPECT_LE(static_cast<int>(out_.candidates.size()) + coordinator_->points_waiting(id), 64) << "tick " << tick;
   }
-  EXPECT_EQ(out_.candidates.size(), 64u);
+  EXPECT_EQ(out_.candidates.size(), 64);
   EXPECT_EQ(coordinator_->points_waiting(id), 0);
 }
 
 TEST_F(CoordinatorTest, TheStudyStateCarriesTheModelsRecommendation) {
   one_slot_study(40, 0);  // 30 random points, then 10 model proposals
-  const msg::StudyState& st = out_.states.back();
-  ASSERT_TRUE(st.has_recommendation());
-  const auto stored = store_->load(static_cast<int>(st.study_id()));
+  const domain::StudyState& st = out_.states.back();
+  ASSERT_TRUE(st.has_recommendation);
+  const auto stored = store_->load(st.study_id);
   ASSERT_TRUE(stored);
-  const auto& trial = stored->trials.at(st.recommended_trial());
+  const auto& trial = stored->trials.at(st.recommendation.trial);
   EXPECT_EQ(trial.status, study::TrialStatus::kDone);
   // Its parameters are that trial's, and its predicted cost is within the observed range.
-  const auto named = dds::from_wire(st.recommended_params());
+  const auto& named = st.recommendation.params;
   EXPECT_FALSE(named.empty());
   double lo = INFINITY, hi = -INFINITY;
   for (const auto& t : stored->trials) {
     if (t.status == study::TrialStatus::kDone) lo = std::min(lo, t.cost), hi = std::max(hi, t.cost);
   }
-  EXPECT_GE(st.recommended_predicted_cost(), lo - 0.5);
-  EXPECT_LE(st.recommended_predicted_cost(), hi);
+  EXPECT_GE(st.recommendation.predicted_cost, lo - 0.5);
+  EXPECT_LE(st.recommendation.predicted_cost, hi);
 }
 
 TEST_F(CoordinatorTest, BadCommandsAreRefusedWithTheReason) {
-  msg::StudyCommand c;
-  c.kind(msg::COMMAND_SUBMIT);
-  c.study_yaml("name: t\nbudget: 0\n");
-  c.source_name("bad.yaml");
+  domain::StudyCommand c;
+  c.kind = domain::CommandKind::kSubmit;
+  c.study_yaml = "name: t\nbudget: 0\n";
+  c.source_name = "bad.yaml";
   coordinator_->handle_command(c, now_);
-  ASSERT_EQ(out_.replies.size(), 1u);
-  EXPECT_FALSE(out_.replies[0].ok());
-  EXPECT_NE(out_.replies[0].message().to_string().find("bad.yaml:2"), std::string::npos) << out_.replies[0].message().to_string();
-  c.kind(msg::COMMAND_PAUSE);
-  c.correlation_id(2);
-  c.study_id(5);
+  ASSERT_EQ(out_.replies.size(), 1);
+  EXPECT_FALSE(out_.replies[0].ok);
+  EXPECT_NE(out_.replies[0].message.find("bad.yaml:2"), std::string::npos) << out_.replies[0].message;
+  c.kind = domain::CommandKind::kPause;
+  c.correlation_id = 2;
+  c.study_id = 5;
   coordinator_->handle_command(c, now_);
-  EXPECT_FALSE(out_.replies[1].ok());
+  EXPECT_FALSE(out_.replies[1].ok);
   EXPECT_EQ(coordinator_->studies(), 0);
 }
 
 TEST_F(CoordinatorTest, AResentCommandGetsTheSameReplyNotASecondStudy) {
-  msg::StudyCommand c;
-  c.correlation_id(7);
-  c.client_id("client-a");
-  c.kind(msg::COMMAND_SUBMIT);
-  c.study_yaml("name: once\n");
+  domain::StudyCommand c;
+  c.correlation_id = 7;
+  c.client_id = "client-a";
+  c.kind = domain::CommandKind::kSubmit;
+  c.study_yaml = "name: once\n";
   coordinator_->handle_command(c, now_);
   coordinator_->handle_command(c, now_ + 2.0);  // the client did not see the reply and sent it again
-  ASSERT_EQ(out_.replies.size(), 2u);
+  ASSERT_EQ(out_.replies.size(), 2);
   EXPECT_EQ(coordinator_->studies(), 1);
-  EXPECT_EQ(out_.replies[0].study_id(), out_.replies[1].study_id());
-  EXPECT_TRUE(out_.replies[1].ok());
-  c.client_id("client-b");  // same correlation id from another client: a different command
+  EXPECT_EQ(out_.replies[0].study_id, out_.replies[1].study_id);
+  EXPECT_TRUE(out_.replies[1].ok);
+  c.client_id = "client-b";  // same correlation id from another client: a different command
   coordinator_->handle_command(c, now_ + 3.0);
   EXPECT_EQ(coordinator_->studies(), 2);
 }
 
 TEST_F(CoordinatorTest, PausedStudyGetsNoNewCandidates) {
   const int id = submit(10, 10);
-  msg::StudyCommand pause;
-  pause.correlation_id(1001);
-  pause.kind(msg::COMMAND_PAUSE);
-  pause.study_id(static_cast<std::uint32_t>(id));
+  domain::StudyCommand pause;
+  pause.correlation_id = 1001;
+  pause.kind = domain::CommandKind::kPause;
+  pause.study_id = static_cast<std::uint32_t>(id);
   coordinator_->handle_command(pause, now_);
-  EXPECT_TRUE(out_.replies.back().ok());
+  EXPECT_TRUE(out_.replies.back().ok);
   worker("a", 4);
   coordinator_->tick(now_);
   EXPECT_TRUE(out_.candidates.empty());
-  pause.kind(msg::COMMAND_RESUME);
-  pause.correlation_id(1002);
+  pause.kind = domain::CommandKind::kResume;
+  pause.correlation_id = 1002;
   coordinator_->handle_command(pause, now_);
   coordinator_->tick(now_ += 0.1);
-  EXPECT_EQ(out_.candidates.size(), 4u);
+  EXPECT_EQ(out_.candidates.size(), 4);
 }
 
 TEST_F(CoordinatorTest, SeveralStudiesShareTheWorkersAndAllFinish) {
@@ -983,13 +982,13 @@ TEST_F(CoordinatorTest, SeveralStudiesShareTheWorkersAndAllFinish) {
   std::set<std::uint32_t> served_early;
   for (int round = 0; round < 40 && !coordinator_->idle(); ++round) {
     coordinator_->tick(now_ += 0.1);
-    if (round < 4 && !out_.candidates.empty()) served_early.insert(out_.candidates.back().study_id());
+    if (round < 4 && !out_.candidates.empty()) served_early.insert(out_.candidates.back().id.study_id);
     answer_all();
   }
-  EXPECT_EQ(served_early.size(), 2u) << "round-robin should serve both studies from the start";
+  EXPECT_EQ(served_early.size(), 2) << "round-robin should serve both studies from the start";
   EXPECT_EQ(store_->load(first)->state, "done");
   EXPECT_EQ(store_->load(second)->state, "done");
-  EXPECT_EQ(out_.trials.size(), 12u);
+  EXPECT_EQ(out_.trials.size(), 12);
 }
 
 // Done trials as another connection sees them (what a restarted optimizer would find).
@@ -1011,7 +1010,7 @@ TEST_F(CoordinatorTest, ABurstOfReportsCommitsAtomicallyAndIsAcknowledgedOnlyAft
   const int id = submit(12, 12);
   worker("a", 4);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 4u);
+  ASSERT_EQ(out_.candidates.size(), 4);
   {
     // The service's loop: the burst and the tick in one transaction, what they publish held. No commit:
     // the process dies (kill -9) before it.
@@ -1021,7 +1020,7 @@ TEST_F(CoordinatorTest, ABurstOfReportsCommitsAtomicallyAndIsAcknowledgedOnlyAft
     coordinator_->tick(now_ += 0.1);  // issues 4 more (store first, inside the batch: a savepoint)
     EXPECT_TRUE(out_.retired.empty()) << "a report was acknowledged before its commit";
     EXPECT_TRUE(out_.trials.empty());
-    EXPECT_EQ(out_.candidates.size(), 4u) << "a candidate was published before its commit";
+    EXPECT_EQ(out_.candidates.size(), 4) << "a candidate was published before its commit";
     EXPECT_GT(deferred_->held(), 8u);
     EXPECT_EQ(done_trials_seen_from_outside(path_), 0);
     deferred_->discard();
@@ -1031,7 +1030,7 @@ TEST_F(CoordinatorTest, ABurstOfReportsCommitsAtomicallyAndIsAcknowledgedOnlyAft
   coordinator_->resume_from_store(now_);
   auto stored = store_->load(id);
   ASSERT_TRUE(stored);
-  EXPECT_EQ(stored->trials.size(), 4u);
+  EXPECT_EQ(stored->trials.size(), 4);
   for (const auto& t : stored->trials) EXPECT_EQ(t.status, study::TrialStatus::kInFlight);
 
   // The same burst, committed: all of it at once, then published.
@@ -1039,7 +1038,7 @@ TEST_F(CoordinatorTest, ABurstOfReportsCommitsAtomicallyAndIsAcknowledgedOnlyAft
   out_ = RecordingOutbox{};
   answered_ = 0;
   coordinator_->tick(now_ += 0.1);  // re-issues the 4
-  ASSERT_EQ(out_.candidates.size(), 4u);
+  ASSERT_EQ(out_.candidates.size(), 4);
   {
     study::StudyStore::Batch batch(*store_);
     deferred_->hold();
@@ -1049,8 +1048,8 @@ TEST_F(CoordinatorTest, ABurstOfReportsCommitsAtomicallyAndIsAcknowledgedOnlyAft
     EXPECT_EQ(done_trials_seen_from_outside(path_), 4);
     deferred_->release();
   }
-  EXPECT_EQ(out_.retired.size(), 4u);
-  EXPECT_EQ(out_.trials.size(), 4u);
+  EXPECT_EQ(out_.retired.size(), 4);
+  EXPECT_EQ(out_.trials.size(), 4);
   EXPECT_THROW(
       {
         study::StudyStore::Batch a(*store_);
@@ -1075,24 +1074,24 @@ TEST_F(CoordinatorTest, ARefusedCandidateIsReissuedNeverSpentAndTheRefusingWorke
   const int id = submit(2, 2);
   worker("a", 1);
   coordinator_->tick(now_);
-  ASSERT_EQ(out_.candidates.size(), 1u);
-  const msg::Candidate first = out_.candidates.back();
-  coordinator_->handle_report(unspent_report(first, msg::OUTCOME_REFUSED, "refused: emergency stop latched: test"), now_);
+  ASSERT_EQ(out_.candidates.size(), 1);
+  const domain::Candidate first = out_.candidates.back();
+  coordinator_->handle_report(unspent_report(first, domain::Outcome::kRefused, "refused: emergency stop latched: test"), now_);
   // Within the backoff the refusing worker gets nothing of this study; a second worker takes the trial.
   coordinator_->tick(now_ += 0.1);
-  EXPECT_EQ(out_.candidates.size(), 1u);
+  EXPECT_EQ(out_.candidates.size(), 1);
   worker("b", 1);
   coordinator_->tick(now_ += 0.1);
-  ASSERT_EQ(out_.candidates.size(), 2u);
-  const msg::Candidate again = out_.candidates.back();
-  EXPECT_EQ(again.worker_id().to_string(), "b");
-  EXPECT_EQ(again.trial_id(), first.trial_id());
-  EXPECT_EQ(again.attempt(), first.attempt() + 1);
-  EXPECT_EQ(dds::from_wire(again.parameters()), dds::from_wire(first.parameters()));
+  ASSERT_EQ(out_.candidates.size(), 2);
+  const domain::Candidate again = out_.candidates.back();
+  EXPECT_EQ(again.worker_id, "b");
+  EXPECT_EQ(again.id.trial_id, first.id.trial_id);
+  EXPECT_EQ(again.id.attempt, first.id.attempt + 1);
+  EXPECT_EQ(again.parameters, first.parameters);
   // Nothing counted, nothing failed; the refusal is on record.
-  EXPECT_EQ(out_.states.empty() ? 0u : out_.states.back().completed(), 0u);
+  EXPECT_EQ(out_.states.empty() ? 0u : out_.states.back().completed, 0);
   const auto attempts = store_->unspent_attempts(id);
-  ASSERT_EQ(attempts.size(), 1u);
+  ASSERT_EQ(attempts.size(), 1);
   EXPECT_EQ(attempts[0].outcome, "refused");
   // After the backoff "a" serves the study again; the study ends with both trials counted, none failed.
   now_ += 3.0;
@@ -1105,42 +1104,42 @@ TEST_F(CoordinatorTest, ARefusedCandidateIsReissuedNeverSpentAndTheRefusingWorke
     coordinator_->tick(now_ += 0.2);
   }
   EXPECT_EQ(store_->load(id)->state, "done");
-  EXPECT_EQ(out_.states.back().completed(), 2u);
-  EXPECT_EQ(out_.states.back().failed(), 0u);
-  EXPECT_EQ(sent_to("a").size(), 2u) << "worker a never served the study again after its backoff";
+  EXPECT_EQ(out_.states.back().completed, 2);
+  EXPECT_EQ(out_.states.back().failed, 0);
+  EXPECT_EQ(sent_to("a").size(), 2) << "worker a never served the study again after its backoff";
 }
 
 TEST_F(CoordinatorTest, PlantFaultsAreRetriedThenSpentAsAFailureTheModelNeverSees) {
   const int id = submit(3, 3);
   worker("robot", 1);
   coordinator_->tick(now_);
-  const int trial = static_cast<int>(out_.candidates.back().trial_id());
+  const int trial = out_.candidates.back().id.trial_id;
   // Faults 1 and 2: re-issued each time, nothing counted.
   for (int fault = 1; fault <= 2; ++fault) {
-    const msg::Candidate c = out_.candidates.back();
-    ASSERT_EQ(static_cast<int>(c.trial_id()), trial);
-    ASSERT_EQ(static_cast<int>(c.attempt()), fault - 1);
+    const domain::Candidate c = out_.candidates.back();
+    ASSERT_EQ(c.id.trial_id, trial);
+    ASSERT_EQ(c.id.attempt, fault - 1);
     // From a robot: its faults may not repeat (a simulation's divergence would, and is spent at once).
-    msg::RolloutReport r = unspent_report(c, fault == 1 ? msg::OUTCOME_PLANT_FAULT : msg::OUTCOME_DIVERGED, "watchdog");
-    r.worker_kind(msg::WORKER_HARDWARE);
+    domain::RolloutReport r = unspent_report(c, fault == 1 ? domain::Outcome::kPlantFault : domain::Outcome::kDiverged, "watchdog");
+    r.worker_kind = domain::WorkerKind::kHardware;
     coordinator_->handle_report(r, now_);
     coordinator_->tick(now_ += 0.1);
-    EXPECT_EQ(static_cast<int>(out_.candidates.back().attempt()), fault) << "fault " << fault << " not re-issued";
+    EXPECT_EQ(out_.candidates.back().id.attempt, fault) << "fault " << fault << " not re-issued";
   }
   EXPECT_TRUE(out_.trials.empty());
   // A stale report of an older attempt changes nothing: no re-issue, no fault counted.
-  msg::Candidate stale = out_.candidates.back();
-  stale.attempt(0);
+  domain::Candidate stale = out_.candidates.back();
+  stale.id.attempt = 0;
   const std::size_t sent_before = out_.candidates.size();
-  coordinator_->handle_report(unspent_report(stale, msg::OUTCOME_PLANT_FAULT, "late"), now_);
+  coordinator_->handle_report(unspent_report(stale, domain::Outcome::kPlantFault, "late"), now_);
   coordinator_->tick(now_ += 0.1);
   EXPECT_EQ(out_.candidates.size(), sent_before);
-  EXPECT_EQ(store_->unspent_attempts(id).size(), 2u);
+  EXPECT_EQ(store_->unspent_attempts(id).size(), 2);
   EXPECT_EQ(store_->load(id)->trials.at(static_cast<std::size_t>(trial)).faults, 2);
   // The third fault reaches the bound (3): spent as a failed trial, its report the fault.
-  coordinator_->handle_report(unspent_report(out_.candidates.back(), msg::OUTCOME_PLANT_FAULT, "watchdog"), now_);
-  ASSERT_EQ(out_.trials.size(), 1u);
-  EXPECT_EQ(out_.trials.back().report().outcome(), msg::OUTCOME_PLANT_FAULT);
+  coordinator_->handle_report(unspent_report(out_.candidates.back(), domain::Outcome::kPlantFault, "watchdog"), now_);
+  ASSERT_EQ(out_.trials.size(), 1);
+  EXPECT_EQ(out_.trials.back().report.outcome, domain::Outcome::kPlantFault);
   answered_ = out_.candidates.size();
   for (int round = 0; round < 10 && !coordinator_->idle(); ++round) {
     coordinator_->tick(now_ += 0.2);
@@ -1148,7 +1147,7 @@ TEST_F(CoordinatorTest, PlantFaultsAreRetriedThenSpentAsAFailureTheModelNeverSee
   }
   const auto done = store_->load(id);
   EXPECT_EQ(done->state, "done");
-  EXPECT_EQ(out_.states.back().failed(), 1u);
+  EXPECT_EQ(out_.states.back().failed, 1);
   // The model was told the faulted trial as excluded: after a restart it is replayed the same way.
   open();
   coordinator_->resume_from_store(now_);
@@ -1159,70 +1158,70 @@ TEST_F(CoordinatorTest, ASimulationThatDivergedIsSpentAtOnceItWouldDivergeAgain)
   submit(2, 2);
   worker("a", 1);
   coordinator_->tick(now_);
-  msg::RolloutReport r = unspent_report(out_.candidates.back(), msg::OUTCOME_DIVERGED, "state diverged");
-  r.worker_kind(msg::WORKER_SIM);
+  domain::RolloutReport r = unspent_report(out_.candidates.back(), domain::Outcome::kDiverged, "state diverged");
+  r.worker_kind = domain::WorkerKind::kSimulation;
   coordinator_->handle_report(r, now_);
-  ASSERT_EQ(out_.trials.size(), 1u);  // spent: a trial record, no re-issue of the same point
-  EXPECT_EQ(out_.trials.back().report().outcome(), msg::OUTCOME_DIVERGED);
+  ASSERT_EQ(out_.trials.size(), 1);  // spent: a trial record, no re-issue of the same point
+  EXPECT_EQ(out_.trials.back().report.outcome, domain::Outcome::kDiverged);
   coordinator_->tick(now_ += 0.1);
-  EXPECT_EQ(out_.candidates.back().trial_id(), 1u);  // the next trial, not the diverged one again
+  EXPECT_EQ(out_.candidates.back().id.trial_id, 1);  // the next trial, not the diverged one again
 }
 
 TEST_F(CoordinatorTest, AStudyWaitingForAnEmergencyStoppedRobotSaysSoAndIssuesItNothing) {
   extra_study_yaml_ = "explore_on: hardware\n";
   submit(2, 2);
-  msg::WorkerAnnouncement w;
-  w.worker_id("morti");
-  w.worker_key(dds::worker_key("morti"));
-  w.slots(1);
-  w.kind(msg::WORKER_HARDWARE);
-  w.accepting(false);
-  w.status("emergency-stopped (operator pressed stop)");
+  domain::WorkerAnnouncement w;
+  w.worker_id = "morti";
+  w.worker_key = domain::worker_key("morti");
+  w.slots = 1;
+  w.kind = domain::WorkerKind::kHardware;
+  w.accepting = false;
+  w.status = "emergency-stopped (operator pressed stop)";
   coordinator_->handle_worker(w, now_);
   coordinator_->tick(now_ += 0.2);
   EXPECT_TRUE(out_.candidates.empty());
   ASSERT_FALSE(out_.states.empty());
-  EXPECT_EQ(out_.states.back().message().to_string(), "waiting: robot morti emergency-stopped (operator pressed stop)");
+  EXPECT_EQ(out_.states.back().message, "waiting: robot morti emergency-stopped (operator pressed stop)");
   // Released: it accepts again, the study goes on and the message clears.
-  w.accepting(true);
-  w.status("");
+  w.accepting = true;
+  w.status = "";
   coordinator_->handle_worker(w, now_);
   coordinator_->tick(now_ += 0.2);
-  EXPECT_EQ(out_.candidates.size(), 1u);
+  EXPECT_EQ(out_.candidates.size(), 1);
   coordinator_->tick(now_ += 0.2);
-  EXPECT_EQ(out_.states.back().message().to_string(), "");
+  EXPECT_EQ(out_.states.back().message, "");
 }
 
 TEST_F(CoordinatorTest, CandidatesCarryTheStudysSpecAndItIsPublishedBeforeThem) {
   struct SpecRecorder : RecordingOutbox {
-    std::vector<msg::StudySpecSample> specs;
-    void publish_spec(const msg::StudySpecSample& s) override { specs.push_back(s); }
+    std::vector<domain::SpecPublication> specs;
+    void publish_spec(const domain::SpecPublication& s) override { specs.push_back(s); }
   };
   SpecRecorder out;
   CoordinatorOptions options;
   options.wall_clock_s = [] { return 1.7e9; };
   Coordinator c(*store_, out, options, [](const std::string&) {}, [](const std::string&) {});
-  msg::StudyCommand cmd;
-  cmd.correlation_id(1);
-  cmd.client_id("test");
-  cmd.kind(msg::COMMAND_SUBMIT);
-  cmd.study_yaml("name: s\nbudget: 2\ninitial_points: 2\nmodel: {knee_spring: {stiffness_nm_per_rad: 20}}\n");
+  domain::StudyCommand cmd;
+  cmd.correlation_id = 1;
+  cmd.client_id = "test";
+  cmd.kind = domain::CommandKind::kSubmit;
+  cmd.study_yaml = "name: s\nbudget: 2\ninitial_points: 2\nmodel: {knee_spring: {stiffness_nm_per_rad: 20}}\n";
   c.handle_command(cmd, now_);
-  ASSERT_TRUE(out.replies.back().ok()) << out.replies.back().message().to_string();
-  ASSERT_EQ(out.specs.size(), 1u);
-  const auto stored = store_->load(static_cast<int>(out.replies.back().study_id()));
-  EXPECT_EQ(out.specs[0].sha256().to_string(), stored->spec.sha256);
-  EXPECT_EQ(out.specs[0].spec_json().to_string(), stored->spec.json);
+  ASSERT_TRUE(out.replies.back().ok) << out.replies.back().message;
+  ASSERT_EQ(out.specs.size(), 1);
+  const auto stored = store_->load(out.replies.back().study_id);
+  EXPECT_EQ(out.specs[0].sha256, stored->spec.sha256);
+  EXPECT_EQ(out.specs[0].json, stored->spec.json);
   EXPECT_EQ(stored->spec.origin, "submitted");
-  msg::WorkerAnnouncement w;
-  w.worker_id("a");
-  w.worker_key(dds::worker_key("a"));
-  w.slots(2);
-  w.accepting(true);
+  domain::WorkerAnnouncement w;
+  w.worker_id = "a";
+  w.worker_key = domain::worker_key("a");
+  w.slots = 2;
+  w.accepting = true;
   c.handle_worker(w, now_);
   c.tick(now_);
-  ASSERT_EQ(out.candidates.size(), 2u);
-  for (const auto& cand : out.candidates) EXPECT_EQ(cand.spec_key(), out.specs[0].spec_key());
+  ASSERT_EQ(out.candidates.size(), 2);
+  for (const auto& cand : out.candidates) EXPECT_EQ(cand.spec_key, out.specs[0].key);
 }
 
 }  // namespace
@@ -1236,24 +1235,24 @@ TEST_F(CoordinatorTest, AnOversizedStudyFileIsRefusedBeforeAnythingParsesIt) {
   std::string huge = "name: huge\n";
   huge.reserve(12'000'000);
   for (int i = 0; huge.size() < 12'000'000; ++i) huge += "k" + std::to_string(i) + ": 1\n";
-  msg::StudyCommand c;
-  c.correlation_id(1);
-  c.client_id("test");
-  c.kind(msg::COMMAND_SUBMIT);
-  c.study_yaml(huge);
-  c.source_name("huge.yaml");
+  domain::StudyCommand c;
+  c.correlation_id = 1;
+  c.client_id = "test";
+  c.kind = domain::CommandKind::kSubmit;
+  c.study_yaml = huge;
+  c.source_name = "huge.yaml";
   coordinator_->handle_command(c, now_);
-  ASSERT_EQ(out_.replies.size(), 1u);
-  EXPECT_FALSE(out_.replies[0].ok());
-  const std::string message = out_.replies[0].message().to_string();
+  ASSERT_EQ(out_.replies.size(), 1);
+  EXPECT_FALSE(out_.replies[0].ok);
+  const std::string message = out_.replies[0].message;
   EXPECT_NE(message.find("huge.yaml"), std::string::npos) << message;
   EXPECT_NE(message.find(std::to_string(study::kMaxStudyFileBytes)), std::string::npos) << message;
   EXPECT_EQ(coordinator_->studies(), 0);
   // Just under the limit is still a study file like any other (here a bad one, refused by its parser).
-  c.correlation_id(2);
-  c.study_yaml("name: fine\nbudget: 0\n" + std::string(1000, '#'));
+  c.correlation_id = 2;
+  c.study_yaml = "name: fine\nbudget: 0\n" + std::string(1000, '#');
   coordinator_->handle_command(c, now_);
-  EXPECT_NE(out_.replies[1].message().to_string().find("budget"), std::string::npos);
+  EXPECT_NE(out_.replies[1].message.find("budget"), std::string::npos);
 }
 
 TEST_F(CoordinatorTest, AStudysElapsedTimeIsNeverNegativeAfterTheWallClockIsSteppedBack) {
@@ -1264,13 +1263,13 @@ TEST_F(CoordinatorTest, AStudysElapsedTimeIsNeverNegativeAfterTheWallClockIsStep
   answer_all();  // a report: the state changes and is published again
   coordinator_->tick(now_ += 0.2);
   ASSERT_FALSE(out_.states.empty());
-  EXPECT_DOUBLE_EQ(out_.states.back().elapsed_s(), 30.0);  // the study's age on the (fake) wall clock
+  EXPECT_DOUBLE_EQ(out_.states.back().elapsed_s, 30.0);  // the study's age on the (fake) wall clock
   const std::size_t published = out_.states.size();
   wall_ -= 3600.0;  // NTP or a user sets the clock an hour back, to before the study was created
   answer_all();
   coordinator_->tick(now_ += 0.2);
   ASSERT_GT(out_.states.size(), published);
-  EXPECT_EQ(out_.states.back().elapsed_s(), 0.0);
+  EXPECT_EQ(out_.states.back().elapsed_s, 0.0);
 }
 
 }  // namespace

@@ -16,13 +16,13 @@ namespace cpgmatch::service {
 namespace {
 
 struct NullOutbox : Outbox {
-  std::vector<msg::CommandReply> replies;
-  void send_candidate(const msg::Candidate&) override {}
-  void retire_candidate(const msg::Candidate&) override {}
-  void publish_trial(const msg::TrialRecord&) override {}
-  void retire_trial(const msg::TrialRecord&) override {}
-  void publish_state(const msg::StudyState&) override {}
-  void reply(const msg::CommandReply& r) override { replies.push_back(r); }
+  std::vector<domain::CommandReply> replies;
+  void send_candidate(const domain::Candidate&) override {}
+  void retire_candidate(const domain::Candidate&) override {}
+  void publish_trial(const domain::TrialRecord&) override {}
+  void retire_trial(const domain::TrialRecord&) override {}
+  void publish_state(const domain::StudyState&) override {}
+  void reply(const domain::CommandReply& r) override { replies.push_back(r); }
 };
 
 // One YAML value: valid, at an edge, absurd, of the wrong type, or not even text.
@@ -60,18 +60,18 @@ TEST(Fuzz, GeneratedStudyFilesNeverCrashTheServiceOrCorruptTheStore) {
     NullOutbox out;
     Coordinator coordinator(store, out, CoordinatorOptions{}, [](const std::string&) {}, [](const std::string&) {});
     for (int i = 0; i < 400; ++i) {
-      msg::StudyCommand c;
-      c.client_id("fuzz");
-      c.correlation_id(static_cast<std::uint64_t>(i + 1));
-      c.kind(msg::COMMAND_SUBMIT);
+      domain::StudyCommand c;
+      c.client_id = "fuzz";
+      c.correlation_id = static_cast<std::uint64_t>(i + 1);
+      c.kind = domain::CommandKind::kSubmit;
       const std::string yaml = random_study(rng);
-      c.study_yaml(yaml.substr(0, 4000));
-      c.source_name("fuzz.yaml");
+      c.study_yaml = yaml.substr(0, 4000);
+      c.source_name = "fuzz.yaml";
       ASSERT_NO_THROW(coordinator.handle_command(c, 1000.0 + i)) << yaml;
       ASSERT_EQ(out.replies.size(), static_cast<std::size_t>(i + 1));
       const auto& reply = out.replies.back();
-      if (reply.ok()) ++accepted;
-      else EXPECT_FALSE(reply.message().to_string().empty()) << yaml;
+      if (reply.ok) ++accepted;
+      else EXPECT_FALSE(reply.message.empty()) << yaml;
       coordinator.tick(1000.0 + i);
     }
     EXPECT_EQ(coordinator.studies(), accepted);

@@ -9,7 +9,7 @@
 #include <set>
 #include <vector>
 
-#include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/domain/worker_identity.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 #include "cpgmatch/service/validation_sets.hpp"
@@ -18,16 +18,16 @@ namespace cpgmatch::service {
 namespace {
 
 struct Outbox2 : Outbox {
-  std::vector<msg::Candidate> candidates;
-  std::vector<msg::TrialRecord> trials;
-  std::vector<msg::StudyState> states;
-  std::vector<msg::CommandReply> replies;
-  void send_candidate(const msg::Candidate& c) override { candidates.push_back(c); }
-  void retire_candidate(const msg::Candidate&) override {}
-  void publish_trial(const msg::TrialRecord& t) override { trials.push_back(t); }
-  void retire_trial(const msg::TrialRecord&) override {}
-  void publish_state(const msg::StudyState& s) override { states.push_back(s); }
-  void reply(const msg::CommandReply& r) override { replies.push_back(r); }
+  std::vector<domain::Candidate> candidates;
+  std::vector<domain::TrialRecord> trials;
+  std::vector<domain::StudyState> states;
+  std::vector<domain::CommandReply> replies;
+  void send_candidate(const domain::Candidate& c) override { candidates.push_back(c); }
+  void retire_candidate(const domain::Candidate&) override {}
+  void publish_trial(const domain::TrialRecord& t) override { trials.push_back(t); }
+  void retire_trial(const domain::TrialRecord&) override {}
+  void publish_state(const domain::StudyState& s) override { states.push_back(s); }
+  void reply(const domain::CommandReply& r) override { replies.push_back(r); }
 };
 
 constexpr const char* kMixedStudy =
@@ -58,42 +58,42 @@ class MixedStudyTest : public ::testing::Test {
                                                  [](const std::string&) {});
   }
   int submit(const std::string& yaml) {
-    msg::StudyCommand c;
-    c.correlation_id(++correlation_);
-    c.client_id("test");
-    c.kind(msg::COMMAND_SUBMIT);
-    c.study_yaml(yaml);
+    domain::StudyCommand c;
+    c.correlation_id = ++correlation_;
+    c.client_id = "test";
+    c.kind = domain::CommandKind::kSubmit;
+    c.study_yaml = yaml;
     coordinator_->handle_command(c, now_);
-    EXPECT_TRUE(out_.replies.back().ok()) << out_.replies.back().message().to_string();
-    return static_cast<int>(out_.replies.back().study_id());
+    EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
+    return static_cast<int>(out_.replies.back().study_id);
   }
-  void worker(const std::string& id, int slots, msg::WorkerKind kind) {
-    msg::WorkerAnnouncement w;
-    w.worker_id(id);
-    w.worker_key(dds::worker_key(id));
-    w.slots(static_cast<std::uint32_t>(slots));
-    w.accepting(true);
-    w.kind(kind);
+  void worker(const std::string& id, int slots, domain::WorkerKind kind) {
+    domain::WorkerAnnouncement w;
+    w.worker_id = id;
+    w.worker_key = domain::worker_key(id);
+    w.slots = slots;
+    w.accepting = true;
+    w.kind = kind;
     coordinator_->handle_worker(w, now_);
   }
   // Keeps both workers alive (as their heartbeats would).
   void heartbeat() {
-    worker("sim", sim_slots_, msg::WORKER_SIM);
-    if (hardware_) worker("robot", 1, msg::WORKER_HARDWARE);
+    worker("sim", sim_slots_, domain::WorkerKind::kSimulation);
+    if (hardware_) worker("robot", 1, domain::WorkerKind::kHardware);
   }
   // Answers every candidate not answered yet; sim rollouts cost 1 + trial / 10, hardware ones 4 + ...
   void answer_all() {
     while (answered_ < out_.candidates.size()) {
-      const msg::Candidate& c = out_.candidates[answered_++];
-      msg::RolloutReport r;
-      r.study_id(c.study_id());
-      r.trial_id(c.trial_id());
-      r.attempt(c.attempt());
-      r.worker_id(c.worker_id());
-      r.ok(true);
-      const bool hw = c.worker_id().to_string() == "robot";
-      r.worker_kind(hw ? msg::WORKER_HARDWARE : msg::WORKER_SIM);
-      r.cost((hw ? 4.0 : 1.0) + 0.1 * c.trial_id());
+      const domain::Candidate& c = out_.candidates[answered_++];
+      domain::RolloutReport r;
+      r.id = c.id;
+      r.worker_id = c.worker_id;
+      r.summary.terms = CostTerms{};
+      r.summary.distance_m = 0.0;
+      // ok follows the outcome
+      const bool hw = c.worker_id == "robot";
+      r.worker_kind = hw ? domain::WorkerKind::kHardware : domain::WorkerKind::kSimulation;
+      r.summary.cost = (hw ? 4.0 : 1.0) + 0.1 * c.id.trial_id;
       coordinator_->handle_report(r, now_);
     }
   }
@@ -141,8 +141,8 @@ TEST_F(MixedStudyTest, ExplorationGoesToSimulationAndTheValidationSetsToHardware
   const study::StoredStudy s = run_mixed_study_to_the_end();
   const auto explored = phase(s, "exploration");
   const auto validated = phase(s, "validation");
-  ASSERT_EQ(explored.size(), 6u);
-  ASSERT_EQ(validated.size(), 4u);
+  ASSERT_EQ(explored.size(), 6);
+  ASSERT_EQ(validated.size(), 4);
   for (const auto* t : explored) EXPECT_EQ(t->worker_id, "sim") << "trial " << t->trial_id;
   for (const auto* t : validated) {
     EXPECT_EQ(t->worker_id, "robot") << "trial " << t->trial_id;
@@ -151,12 +151,12 @@ TEST_F(MixedStudyTest, ExplorationGoesToSimulationAndTheValidationSetsToHardware
   }
   // Around the recommendation (every sim cost rises with the trial id, so the GP's lowest posterior mean
   // is at an early trial): each parameter within +-10 % of the centre's and inside the bounds.
-  const msg::StudyState& last = out_.states.back();
-  EXPECT_EQ(last.state(), msg::STUDY_DONE);
-  EXPECT_EQ(last.budget(), 10u);
-  EXPECT_EQ(last.completed(), 10u);
-  ASSERT_TRUE(last.has_recommendation());
-  const int centre_trial = static_cast<int>(last.recommended_trial());
+  const domain::StudyState& last = out_.states.back();
+  EXPECT_EQ(last.status, domain::StudyStatus::kDone);
+  EXPECT_EQ(last.budget, 10);
+  EXPECT_EQ(last.completed, 10);
+  ASSERT_TRUE(last.has_recommendation);
+  const int centre_trial = last.recommendation.trial;
   const Eigen::VectorXd centre = s.trials.at(static_cast<std::size_t>(centre_trial)).x;
   const auto cfg = study::load_study_config_text(kMixedStudy, "s.yaml");
   for (const auto* t : validated) {
@@ -174,7 +174,7 @@ TEST_F(MixedStudyTest, TheValidationReachesTheRobotWhileManySimulationSlotsSitId
   sim_slots_ = 3 * CoordinatorOptions{}.max_issues_per_tick;
   const study::StoredStudy s = run_mixed_study_to_the_end();
   const auto validated = phase(s, "validation");
-  ASSERT_EQ(validated.size(), 4u);
+  ASSERT_EQ(validated.size(), 4);
   for (const auto* t : validated) EXPECT_EQ(t->worker_id, "robot") << "trial " << t->trial_id;
 }
 
@@ -183,7 +183,7 @@ TEST_F(MixedStudyTest, ValidationSetsAreWithinTheSpreadAndBoundsAndTheSameForThe
   Eigen::VectorXd centre(3);
   centre << 0.98, 0.0, 1.0;  // a near its upper bound, b zero
   const auto sets = validation_sets(space, centre, 50, 0.1, 3);
-  ASSERT_EQ(sets.size(), 50u);
+  ASSERT_EQ(sets.size(), 50);
   bool some_clipped = false, some_varied = false;
   for (const auto& x : sets) {
     EXPECT_LE(x[0], 1.0);
@@ -209,17 +209,17 @@ TEST_F(MixedStudyTest, WithoutAHardwareWorkerTheValidationWaitsAndSaysSo) {
   auto s = store_->load(id);
   ASSERT_TRUE(s);
   EXPECT_EQ(s->state, "running");
-  EXPECT_EQ(phase(*s, "validation").size(), 4u);  // stored, waiting
-  const msg::StudyState& waiting = out_.states.back();
-  EXPECT_EQ(waiting.state(), msg::STUDY_RUNNING);
-  EXPECT_EQ(waiting.completed(), 6u);
-  EXPECT_EQ(waiting.message().to_string().rfind("waiting_for_hardware", 0), 0u) << waiting.message().to_string();
-  for (const auto& c : out_.candidates) EXPECT_EQ(c.worker_id().to_string(), "sim");  // never to the sim worker
+  EXPECT_EQ(phase(*s, "validation").size(), 4);  // stored, waiting
+  const domain::StudyState& waiting = out_.states.back();
+  EXPECT_EQ(waiting.status, domain::StudyStatus::kRunning);
+  EXPECT_EQ(waiting.completed, 6);
+  EXPECT_EQ(waiting.message.rfind("waiting_for_hardware", 0), 0u) << waiting.message;
+  for (const auto& c : out_.candidates) EXPECT_EQ(c.worker_id, "sim");  // never to the sim worker
   hardware_ = true;  // the robot joins
   run(10);
   s = store_->load(id);
   EXPECT_EQ(s->state, "done") << s->message;
-  EXPECT_EQ(out_.states.back().message().to_string().find("waiting"), std::string::npos);
+  EXPECT_EQ(out_.states.back().message.find("waiting"), std::string::npos);
 }
 
 TEST_F(MixedStudyTest, ARestartMidValidationIssuesTheSameSetsAndCountsEachOnce) {
@@ -235,7 +235,7 @@ TEST_F(MixedStudyTest, ARestartMidValidationIssuesTheSameSetsAndCountsEachOnce) 
     // Answer one candidate at a time so that the crash falls between two validation reports.
     if (answered_ < out_.candidates.size()) {
       const std::size_t upto = answered_ + 1;
-      std::vector<msg::Candidate> rest(out_.candidates.begin() + static_cast<long>(upto), out_.candidates.end());
+      std::vector<domain::Candidate> rest(out_.candidates.begin() + static_cast<long>(upto), out_.candidates.end());
       out_.candidates.resize(upto);
       answer_all();
       out_.candidates.insert(out_.candidates.end(), rest.begin(), rest.end());
@@ -247,17 +247,17 @@ TEST_F(MixedStudyTest, ARestartMidValidationIssuesTheSameSetsAndCountsEachOnce) 
   ASSERT_EQ(done_before, 1);  // the "crash" falls mid-validation
   std::vector<Eigen::VectorXd> sets_before;
   for (const auto* t : phase(*before, "validation")) sets_before.push_back(t->x);
-  ASSERT_EQ(sets_before.size(), 4u);
+  ASSERT_EQ(sets_before.size(), 4);
   open();
   coordinator_->resume_from_store(now_);
   run(20);
   const auto after = store_->load(id);
   EXPECT_EQ(after->state, "done") << after->message;
   const auto validated = phase(*after, "validation");
-  ASSERT_EQ(validated.size(), 4u);  // the same four, no fresh draw
+  ASSERT_EQ(validated.size(), 4);  // the same four, no fresh draw
   for (std::size_t i = 0; i < validated.size(); ++i) EXPECT_EQ(validated[i]->x, sets_before[i]);
-  EXPECT_EQ(phase(*after, "exploration").size(), 6u);
-  EXPECT_EQ(out_.states.back().completed(), 10u);
+  EXPECT_EQ(phase(*after, "exploration").size(), 6);
+  EXPECT_EQ(out_.states.back().completed, 10);
 }
 
 TEST_F(MixedStudyTest, AHardwareOnlyStudyNeverUsesSimulationWorkers) {
@@ -266,7 +266,7 @@ TEST_F(MixedStudyTest, AHardwareOnlyStudyNeverUsesSimulationWorkers) {
   run(20);
   const auto s = store_->load(id);
   EXPECT_EQ(s->state, "done") << s->message;
-  ASSERT_EQ(s->trials.size(), 3u);
+  ASSERT_EQ(s->trials.size(), 3);
   for (const auto& t : s->trials) EXPECT_EQ(t.worker_id, "robot");
 }
 
@@ -281,7 +281,7 @@ TEST_F(MixedStudyTest, AStoreWithoutThePhaseColumnIsMigratedInPlace) {
   sqlite3_close(db);
   open();  // an older store: the column comes back, every trial an exploration
   const auto s = store_->load(id);
-  ASSERT_EQ(s->trials.size(), 2u);
+  ASSERT_EQ(s->trials.size(), 2);
   for (const auto& t : s->trials) EXPECT_EQ(t.phase, "exploration");
 }
 

@@ -10,14 +10,11 @@
 namespace cpgmatch::worker {
 namespace {
 
-msg::Candidate candidate(std::uint32_t trial, std::uint32_t attempt = 0, const std::string& worker = "w1",
-                         std::uint64_t store = 77, std::uint32_t study = 1) {
-  msg::Candidate c;
-  c.store_id(store);
-  c.study_id(study);
-  c.trial_id(trial);
-  c.attempt(attempt);
-  c.worker_id(worker);
+domain::Candidate candidate(int trial, int attempt = 0, const std::string& worker = "w1", std::uint64_t store = 77,
+                            int study = 1) {
+  domain::Candidate c;
+  c.id = domain::AttemptId{store, study, trial, attempt};
+  c.worker_id = worker;
   return c;
 }
 
@@ -66,8 +63,8 @@ TEST(CandidateQueue, TakesInArrivalOrderAndCountsBusyAndCompleted) {
   const auto a = q.take();
   const auto b = q.take();
   ASSERT_TRUE(a && b);
-  EXPECT_EQ(a->trial_id(), 5u);
-  EXPECT_EQ(b->trial_id(), 3u);
+  EXPECT_EQ(a->id.trial_id, 5);
+  EXPECT_EQ(b->id.trial_id, 3);
   EXPECT_EQ(q.load().busy, 2u);
   EXPECT_EQ(q.load().queued, 1u);
   q.finish(*a);
@@ -75,7 +72,7 @@ TEST(CandidateQueue, TakesInArrivalOrderAndCountsBusyAndCompleted) {
   EXPECT_EQ(q.load().completed, 1u);
   const auto c = q.take();
   ASSERT_TRUE(c);
-  EXPECT_EQ(c->trial_id(), 9u);
+  EXPECT_EQ(c->id.trial_id, 9);
   q.finish(*b);
   q.finish(*c);
   EXPECT_EQ(q.load().busy, 0u);
@@ -90,7 +87,7 @@ TEST(CandidateQueue, TakeWaitsForAnOffer) {
   ASSERT_EQ(taken.wait_for(std::chrono::seconds(5)), std::future_status::ready);
   const auto c = taken.get();
   ASSERT_TRUE(c.has_value());
-  EXPECT_EQ(c->trial_id(), 4u);
+  EXPECT_EQ(c->id.trial_id, 4);
 }
 
 TEST(CandidateQueue, DrainWakesAWaitingTaker) {

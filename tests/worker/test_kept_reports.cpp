@@ -7,21 +7,12 @@
 namespace cpgmatch::worker {
 namespace {
 
-msg::RolloutReport report(std::uint32_t trial, std::uint64_t store = 77, std::uint32_t study = 1, std::uint32_t attempt = 0) {
-  msg::RolloutReport r;
-  r.store_id(store);
-  r.study_id(study);
-  r.trial_id(trial);
-  r.attempt(attempt);
-  return r;
+domain::AttemptId report(int trial, std::uint64_t store = 77, int study = 1, int attempt = 0) {
+  return domain::AttemptId{store, study, trial, attempt};
 }
 
-msg::Candidate key(std::uint32_t trial, std::uint64_t store = 77, std::uint32_t study = 1) {
-  msg::Candidate c;  // a dispose carries the key fields only
-  c.store_id(store);
-  c.study_id(study);
-  c.trial_id(trial);
-  return c;
+domain::AttemptId key(int trial, std::uint64_t store = 77, int study = 1) {
+  return domain::AttemptId{store, study, trial, 0};  // a dispose carries the key fields only
 }
 
 TEST(KeptReports, AReportIsKeptUntilItsCandidateIsDisposed) {
@@ -31,7 +22,7 @@ TEST(KeptReports, AReportIsKeptUntilItsCandidateIsDisposed) {
   EXPECT_EQ(kept.size(), 2u);
   const auto released = kept.acknowledge(key(1));
   ASSERT_TRUE(released.has_value());
-  EXPECT_EQ(released->trial_id(), 1u);
+  EXPECT_EQ(released->trial_id, 1);
   EXPECT_EQ(kept.size(), 1u);
   EXPECT_FALSE(kept.acknowledge(key(1)).has_value());  // a second dispose releases nothing
 }
@@ -53,7 +44,7 @@ TEST(KeptReports, BeyondTheLimitTheOldestUnacknowledgedIsReleased) {
   EXPECT_TRUE(kept.keep(report(4)).empty());  // 2, 3, 4: at the limit, nothing to release
   const auto released = kept.keep(report(5));
   ASSERT_EQ(released.size(), 1u);
-  EXPECT_EQ(released[0].trial_id(), 2u);  // the oldest still kept, not the acknowledged 1
+  EXPECT_EQ(released[0].trial_id, 2);  // the oldest still kept, not the acknowledged 1
   EXPECT_EQ(kept.size(), 3u);
   EXPECT_FALSE(kept.acknowledge(key(2)).has_value());
 }
@@ -75,7 +66,7 @@ TEST(KeptReports, AReissuedTrialsNewerReportReplacesTheOlder) {
   EXPECT_EQ(kept.size(), 1u);
   const auto released = kept.acknowledge(key(1));
   ASSERT_TRUE(released.has_value());
-  EXPECT_EQ(released->attempt(), 1u);
+  EXPECT_EQ(released->attempt, 1u);
 }
 
 }  // namespace

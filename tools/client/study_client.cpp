@@ -13,10 +13,25 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/dds/convert.hpp"
-#include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/domain/report_json.hpp"
 #include "cpgmatch/dds/participant.hpp"
 
 namespace cpgmatch::client {
+
+namespace {
+
+// The JSON view of a sample, through its domain type; a sample the domain cannot hold is left out (a client
+// shows what the optimizer published, and this one never publishes such a thing).
+template <typename Wire>
+std::optional<nlohmann::json> json_of(const Wire& sample) {
+  try {
+    return domain::to_json(dds::from_wire(sample));
+  } catch (const dds::WireError&) {
+    return std::nullopt;
+  }
+}
+
+}  // namespace
 
 struct StudyClient::Impl {
   Impl(int domain, bool localhost_only, bool read_trials)
@@ -24,13 +39,13 @@ struct StudyClient::Impl {
         client_id(fmt::format("cli-{}-{}", getpid(), std::random_device{}())) {
     state_reader = std::make_unique<dds::Reader<msg::StudyState>>(participant, [this](const msg::StudyState& s) {
       std::lock_guard<std::mutex> lock(mutex);
-      study_states[static_cast<int>(s.study_id())] = dds::to_json(s);
+      if (auto j = json_of(s)) study_states[static_cast<int>(s.study_id())] = std::move(*j);
     });
     worker_reader = std::make_unique<dds::Reader<msg::WorkerAnnouncement>>(
         participant,
         [this](const msg::WorkerAnnouncement& w) {
           std::lock_guard<std::mutex> lock(mutex);
-          live_workers[w.worker_id().to_string()] = dds::to_json(w);
+          if (auto j = json_of(w)) live_workers[w.worker_id().to_string()] = std::move(*j);
         },
         [this](const msg::WorkerAnnouncement& key, dds::InstanceGone) {
           std::lock_guard<std::mutex> lock(mutex);
@@ -39,7 +54,7 @@ struct StudyClient::Impl {
     if (read_trials) {
       trial_reader = std::make_unique<dds::Reader<msg::TrialRecord>>(participant, [this](const msg::TrialRecord& t) {
         std::lock_guard<std::mutex> lock(mutex);
-        trial_records[static_cast<int>(t.study_id())][static_cast<int>(t.trial_id())] = dds::to_json(t);
+        if (auto j = json_of(t)) trial_records[static_cast<int>(t.study_id())][static_cast<int>(t.trial_id())] = std::move(*j);
       });
     }
   }
@@ -56,7 +71,7 @@ struct StudyClient::Impl {
     commands = std::make_unique<dds::Writer<msg::StudyCommand>>(participant);
   }
 
-  CommandResult send(msg::StudyCommand command, double timeout_s) {
+  CommandResult send(domain::StudyCommand domain_command, double timeout_s) {
     open_command_channel();
     const auto timeout = std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
     // A command written before the optimizer's reader and our reply reader are matched would be lost
@@ -66,8 +81,9 @@ struct StudyClient::Impl {
                                            participant.domain(), timeout_s));
     }
     std::mt19937_64 rng(std::random_device{}());
-    command.correlation_id(rng());
-    command.client_id(client_id);
+    domain_command.correlation_id = rng();
+    domain_command.client_id = client_id;
+    const msg::StudyCommand command = dds::to_wire(domain_command);
     // At least once: re-send until a reply arrives. The optimizer answers a repeated correlation_id
     // from its reply cache, so a re-sent submit never creates a second study.
     const auto deadline = std::chrono::steady_clock::now() + timeout;
@@ -82,8 +98,8 @@ struct StudyClient::Impl {
       changed.wait_until(lock, std::min(deadline, std::chrono::steady_clock::now() + std::chrono::seconds(2)),
                          [&] { return received.count(command.correlation_id()) > 0; });
     }
-    const msg::CommandReply& r = received.at(command.correlation_id());
-    return {r.ok(), static_cast<int>(r.study_id()), r.message().to_string()};
+    const domain::CommandReply r = dds::from_wire(received.at(command.correlation_id()));
+    return {r.ok, r.study_id, r.message};
   }
 
   dds::Participant participant;
@@ -114,20 +130,20 @@ StudyClient::~StudyClient() {
 }
 
 CommandResult StudyClient::submit(const std::string& study_yaml, const std::string& source_name, double timeout_s) {
-  msg::StudyCommand c;
-  c.kind(msg::COMMAND_SUBMIT);
-  c.study_yaml(study_yaml);
-  c.source_name(source_name.substr(0, 255));
+  domain::StudyCommand c;
+  c.kind = domain::CommandKind::kSubmit;
+  c.study_yaml = study_yaml;
+  c.source_name = source_name;
   return impl_->send(c, timeout_s);
 }
 
 CommandResult StudyClient::control(const std::string& kind, int study_id, double timeout_s) {
-  msg::StudyCommand c;
-  if (kind == "pause") c.kind(msg::COMMAND_PAUSE);
-  else if (kind == "resume") c.kind(msg::COMMAND_RESUME);
-  else if (kind == "stop") c.kind(msg::COMMAND_STOP);
+  domain::StudyCommand c;
+  if (kind == "pause") c.kind = domain::CommandKind::kPause;
+  else if (kind == "resume") c.kind = domain::CommandKind::kResume;
+  else if (kind == "stop") c.kind = domain::CommandKind::kStop;
   else throw std::invalid_argument("unknown command " + kind);
-  c.study_id(static_cast<std::uint32_t>(study_id));
+  c.study_id = study_id;
   return impl_->send(c, timeout_s);
 }
 

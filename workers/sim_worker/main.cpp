@@ -42,7 +42,7 @@ struct Options {
   double fake_rollout_ms = -1.0;
   double heartbeat_s = 0.5;
   bool localhost_only = false;
-  std::uint32_t objective_version = study::kObjectiveVersion;
+  int objective_version = study::kObjectiveVersion;
 };
 
 std::string host_name() {
@@ -58,7 +58,7 @@ class SimWorker {
   explicit SimWorker(const Options& o)
       : options_(o),
         queue_(o.id),
-        link_(WorkerLinkConfig{o.domain, o.id, "cpgmatch-sim-worker " + o.id, o.localhost_only, msg::WORKER_SIM,
+        link_(WorkerLinkConfig{o.domain, o.id, "cpgmatch-sim-worker " + o.id, o.localhost_only, domain::WorkerKind::kSimulation,
                                static_cast<std::uint32_t>(o.slots), o.heartbeat_s, host_name(), {},
                                o.objective_version},
               queue_),
@@ -78,9 +78,9 @@ class SimWorker {
 
  private:
   void slot_loop() {
-    while (const std::optional<msg::Candidate> c = queue_.take()) {
-      const msg::RolloutReport report = execute_candidate(*c, slot_options_);
-      if (!report.ok()) spdlog::warn("study {} trial {}: {}", c->study_id(), c->trial_id(), report.error().to_string());
+    while (const std::optional<domain::Candidate> c = queue_.take()) {
+      const domain::RolloutReport report = execute_candidate(*c, slot_options_);
+      if (!report.ok()) spdlog::warn("study {} trial {}: {}", c->id.study_id, c->id.trial_id, report.error);
       link_.publish(report);
       queue_.finish(*c);
     }

@@ -7,8 +7,7 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/command_objective.hpp"
-#include "cpgmatch/dds/convert.hpp"
-#include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/domain/report_json.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
@@ -18,20 +17,14 @@ namespace cpgmatch::worker {
 
 namespace {
 
-msg::RolloutReport failed(const msg::Candidate& c, const SlotOptions& o, const std::string& why,
-                          msg::RolloutOutcome outcome = msg::OUTCOME_ERROR) {
-  msg::RolloutReport r;
-  r.outcome(outcome);
-  r.store_id(c.store_id());
-  r.study_id(c.study_id());
-  r.trial_id(c.trial_id());
-  r.attempt(c.attempt());
-  r.worker_id(o.worker_id);
-  r.worker_kind(msg::WORKER_SIM);
-  r.ok(false);
-  r.error(why.substr(0, 255));
-  r.cost(std::nan(""));
-  r.fall_time_s(-1.0);
+domain::RolloutReport failed(const domain::Candidate& c, const SlotOptions& o, const std::string& why,
+                             domain::Outcome outcome = domain::Outcome::kError) {
+  domain::RolloutReport r;
+  r.id = c.id;
+  r.worker_id = o.worker_id;
+  r.worker_kind = domain::WorkerKind::kSimulation;
+  r.outcome = outcome;
+  r.error = why;
   return r;
 }
 
@@ -39,15 +32,15 @@ msg::RolloutReport failed(const msg::Candidate& c, const SlotOptions& o, const s
 // candidate asking for 1e308 s would otherwise hold a slot until its lease runs out.
 constexpr double kMaxRolloutPartS = 3600.0;
 
-std::optional<std::string> check_spec(const msg::RolloutSpec& s) {
-  if (!std::isfinite(s.entrain_s()) || s.entrain_s() < 0.0 || s.entrain_s() > kMaxRolloutPartS) {
-    return fmt::format("rollout.entrain_s = {} (must be in [0, {}] s)", s.entrain_s(), kMaxRolloutPartS);
+std::optional<std::string> check_spec(const domain::RolloutConditions& s) {
+  if (!std::isfinite(s.entrain_s) || s.entrain_s < 0.0 || s.entrain_s > kMaxRolloutPartS) {
+    return fmt::format("rollout.entrain_s = {} (must be in [0, {}] s)", s.entrain_s, kMaxRolloutPartS);
   }
-  if (!std::isfinite(s.eval_s()) || s.eval_s() <= 0.0 || s.eval_s() > kMaxRolloutPartS) {
-    return fmt::format("rollout.eval_s = {} (must be in (0, {}] s)", s.eval_s(), kMaxRolloutPartS);
+  if (!std::isfinite(s.eval_s) || s.eval_s <= 0.0 || s.eval_s > kMaxRolloutPartS) {
+    return fmt::format("rollout.eval_s = {} (must be in (0, {}] s)", s.eval_s, kMaxRolloutPartS);
   }
   try {
-    (void)sim::TerrainSpec::parse(s.terrain().to_string());
+    (void)sim::TerrainSpec::parse(s.terrain);
   } catch (const InputError& e) {
     return fmt::format("rollout.terrain: {}", e.what());
   }
@@ -56,14 +49,14 @@ std::optional<std::string> check_spec(const msg::RolloutSpec& s) {
 
 }  // namespace
 
-nlohmann::json rollout_request(const msg::Candidate& c, const study::StudySpec& spec) {
+nlohmann::json rollout_request(const domain::Candidate& c, const study::StudySpec& spec) {
   nlohmann::json params = nlohmann::json::object();
-  for (const auto& [name, value] : dds::from_wire(c.parameters())) params[name] = value;
+  for (const auto& [name, value] : c.parameters) params[name] = value;
   return {{"params", params},
-          {"entrain_s", c.rollout().entrain_s()},
-          {"eval_s", c.rollout().eval_s()},
-          {"terrain", c.rollout().terrain().to_string()},
-          {"seed", c.rollout().seed()},
+          {"entrain_s", c.rollout.entrain_s},
+          {"eval_s", c.rollout.eval_s},
+          {"terrain", c.rollout.terrain},
+          {"seed", c.rollout.seed},
           {"spec", spec.canonical_json()}};
 }
 
@@ -79,62 +72,56 @@ nlohmann::json run_rollout_request(const nlohmann::json& request) {
     throw InputError(fmt::format("rollout request: {}", e.what()));
   }
   const RolloutResult result = sim::run_sim_rollout(job);
-  msg::RolloutReport r;
-  dds::fill_report(r, result);  // ok, outcome and (for a divergence) the error
-  return dds::to_json(r);
+  return domain::to_json(domain::report_of(result));  // outcome and (for a divergence) the error
 }
 
-msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions& o) {
-  if (auto why = dds::check_parameters(c.parameters())) return failed(c, o, "bad parameters: " + *why);
-  if (auto why = check_spec(c.rollout())) return failed(c, o, "bad rollout spec: " + *why);
+domain::RolloutReport execute_candidate(const domain::Candidate& c, const SlotOptions& o) {
+  if (auto why = domain::check_parameters(c.parameters)) return failed(c, o, "bad parameters: " + *why);
+  if (auto why = check_spec(c.rollout)) return failed(c, o, "bad rollout spec: " + *why);
   // The lease bounds the rollout process's run time below: a day at most, as a study file allows.
-  if (!std::isfinite(c.lease_s()) || c.lease_s() < 0.0 || c.lease_s() > 86400.0) {
-    return failed(c, o, fmt::format("bad candidate: lease_s = {} (must be in [0, 86400] s)", c.lease_s()));
+  if (!std::isfinite(c.lease_s) || c.lease_s < 0.0 || c.lease_s > 86400.0) {
+    return failed(c, o, fmt::format("bad candidate: lease_s = {} (must be in [0, 86400] s)", c.lease_s));
   }
   // The study's spec decides what this rollout computes: one this worker cannot run is refused, never
   // computed with something else (the optimizer re-issues it to a worker that can).
   SpecBook::Lookup spec;
   if (o.fake_rollout_s < 0.0) {
-    spec = o.find_spec(c.spec_key());
-    if (!spec.spec) return failed(c, o, "refused: " + spec.refusal, msg::OUTCOME_REFUSED);
+    spec = o.find_spec(c.spec_key);
+    if (!spec.spec) return failed(c, o, "refused: " + spec.refusal, domain::Outcome::kRefused);
   }
-  msg::RolloutReport r;
+  domain::RolloutReport r;
   const auto start = std::chrono::steady_clock::now();
   if (o.fake_rollout_s >= 0.0) {
     // Service benchmarks: a fixed delay and a smooth synthetic cost (squared distance of the
     // parameters from the middle of their ranges), so the optimizer still has something to minimise.
     std::this_thread::sleep_for(std::chrono::duration<double>(o.fake_rollout_s));
     double cost = 0.0;
-    for (const auto& [name, value] : dds::from_wire(c.parameters())) {
+    for (const auto& [name, value] : c.parameters) {
       const ParameterInfo& info = parameter_info(name);
       const double u = (value - 0.5 * (info.low + info.high)) / (info.high - info.low);
       cost += u * u;
     }
-    r.ok(true);
-    r.outcome(msg::OUTCOME_COMPLETED);
-    r.cost(cost);
-    r.fell(false);
-    r.fall_time_s(-1.0);
+    r.outcome = domain::Outcome::kCompleted;
+    r.summary.cost = cost;
+    r.summary.distance_m = r.summary.mean_speed_mps = 0.0;  // nothing moved: a delay, not a gait
+    r.summary.normalized_torque = r.summary.summed_torque_nm = 0.0;
   } else {
     const std::string command = fmt::format("{} --run-one", shell_quote(self_executable()));
-    const double timeout = c.lease_s() > 0.0 ? c.lease_s() : 600.0;
+    const double timeout = c.lease_s > 0.0 ? c.lease_s : 600.0;
     const EvaluationOutcome outcome = run_command_objective(command, rollout_request(c, *spec.spec).dump(), timeout);
     if (!outcome.ok) return failed(c, o, outcome.message);
     if (outcome.stdout_lines.size() < 2) return failed(c, o, "rollout process printed no report");
     try {
-      r = dds::report_from_json(nlohmann::json::parse(outcome.stdout_lines[outcome.stdout_lines.size() - 2]));
+      r = domain::report_from_json(nlohmann::json::parse(outcome.stdout_lines[outcome.stdout_lines.size() - 2]));
     } catch (const std::exception& e) {
       return failed(c, o, fmt::format("unreadable rollout output: {}", e.what()));
     }
   }
-  r.store_id(c.store_id());
-  r.study_id(c.study_id());
-  r.trial_id(c.trial_id());
-  r.attempt(c.attempt());
-  r.worker_id(o.worker_id);
-  r.worker_kind(msg::WORKER_SIM);
-  if (r.ok()) r.error("");
-  r.wall_time_s(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  r.id = c.id;
+  r.worker_id = o.worker_id;
+  r.worker_kind = domain::WorkerKind::kSimulation;
+  if (r.ok()) r.error.clear();
+  r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }
 

@@ -1,6 +1,7 @@
 // What one worker slot does with one candidate: validate it, run the rollout (in a child process, or a
 // fixed delay for service benchmarks) and turn the outcome into a report. Never throws for a bad
-// candidate or a crashing rollout: those become reports with ok = false and the reason.
+// candidate or a crashing rollout: those become reports that did not measure, with the reason. Domain types
+// only: the worker's link (worker_link.hpp) converts to and from the wire.
 #pragma once
 
 #include <functional>
@@ -9,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cpgmatch/worker/spec_book.hpp"
-#include "cpgmatch_msgs.h"
+#include "cpgmatch/domain/candidate.hpp"
 
 namespace cpgmatch::worker {
 
@@ -22,13 +23,13 @@ struct SlotOptions {
 
 // The rollout request a slot hands to its child process (`cpgmatch-sim-worker --run-one`): the candidate's
 // parameters, terrain, seed and timing, and the whole spec it runs (the child reads no local config).
-nlohmann::json rollout_request(const msg::Candidate& c, const study::StudySpec& spec);
+nlohmann::json rollout_request(const domain::Candidate& c, const study::StudySpec& spec);
 
-// Runs one rollout request in this process and returns the report fields as JSON (dds::to_json form).
+// Runs one rollout request in this process and returns its report as JSON (domain/report_json.hpp).
 // Throws InputError for a malformed request.
 nlohmann::json run_rollout_request(const nlohmann::json& request);
 
 // Validates, runs and reports one candidate. Thread-safe: each call forks its own rollout process.
-msg::RolloutReport execute_candidate(const msg::Candidate& c, const SlotOptions& options);
+domain::RolloutReport execute_candidate(const domain::Candidate& c, const SlotOptions& options);
 
 }  // namespace cpgmatch::worker

@@ -1,14 +1,61 @@
 #include "cpgmatch/dds/convert.hpp"
 
-#include <cmath>
-#include <set>
+#include <algorithm>
+#include <limits>
 
 #include <fmt/format.h>
 
-#include "cpgmatch/errors.hpp"
-#include "cpgmatch/params.hpp"
-
 namespace cpgmatch::dds {
+
+namespace {
+
+// Bounded wire strings (string<N>) keep their first N characters: a long error message is cut, not refused.
+template <typename Bounded>
+std::string text(const Bounded& s) {
+  return s.to_string();
+}
+
+template <typename Enum>
+Enum checked_enum(int value, int last, const char* field) {
+  if (value < 0 || value > last) throw WireError(fmt::format("{} = {} is not a valid value", field, value));
+  return static_cast<Enum>(value);
+}
+
+domain::Outcome outcome_from_wire(msg::RolloutOutcome o) {
+  switch (o) {
+    case msg::OUTCOME_COMPLETED: return domain::Outcome::kCompleted;
+    case msg::OUTCOME_FELL: return domain::Outcome::kFell;
+    case msg::OUTCOME_REFUSED: return domain::Outcome::kRefused;
+    case msg::OUTCOME_PLANT_FAULT: return domain::Outcome::kPlantFault;
+    case msg::OUTCOME_DIVERGED: return domain::Outcome::kDiverged;
+    case msg::OUTCOME_ERROR: return domain::Outcome::kError;
+  }
+  throw WireError(fmt::format("outcome = {} is not a RolloutOutcome", static_cast<int>(o)));
+}
+
+domain::WorkerKind kind_from_wire(msg::WorkerKind k) {
+  if (k == msg::WORKER_SIM) return domain::WorkerKind::kSimulation;
+  if (k == msg::WORKER_HARDWARE) return domain::WorkerKind::kHardware;
+  throw WireError(fmt::format("worker kind = {} is not a WorkerKind", static_cast<int>(k)));
+}
+
+domain::AttemptId attempt_id(std::uint64_t store_id, std::uint32_t study_id, std::uint32_t trial_id,
+                             std::uint32_t attempt) {
+  // Ids are 32-bit unsigned on the wire and int in the domain: a value past INT_MAX is not one this service
+  // ever issued, and refused here rather than wrapped into a negative id.
+  for (const auto& [name, v] : {std::pair<const char*, std::uint32_t>{"study_id", study_id},
+                                {"trial_id", trial_id},
+                                {"attempt", attempt}}) {
+    if (v > static_cast<std::uint32_t>(std::numeric_limits<int>::max())) {
+      throw WireError(fmt::format("{} = {} is out of range", name, v));
+    }
+  }
+  return {store_id, static_cast<int>(study_id), static_cast<int>(trial_id), static_cast<int>(attempt)};
+}
+
+std::uint32_t u32(int v) { return v < 0 ? 0u : static_cast<std::uint32_t>(v); }
+
+}  // namespace
 
 std::vector<msg::ParameterValue> to_wire(const std::map<std::string, double>& named) {
   std::vector<msg::ParameterValue> out;
@@ -24,133 +71,355 @@ std::vector<msg::ParameterValue> to_wire(const std::map<std::string, double>& na
 
 std::map<std::string, double> from_wire(const std::vector<msg::ParameterValue>& values) {
   std::map<std::string, double> out;
-  for (const auto& v : values) out[v.name().to_string()] = v.value();
+  for (const auto& v : values) {
+    if (!out.emplace(text(v.name()), v.value()).second) {
+      throw WireError(fmt::format("parameter '{}' given twice", text(v.name())));
+    }
+  }
   return out;
 }
 
-void fill_report(msg::RolloutReport& r, const RolloutResult& result) {
-  const auto& b = result.breakdown;
-  r.cost(result.cost);
-  r.j_feedback(b.terms.feedback);
-  r.j_distance(b.terms.distance);
-  r.j_pitch(b.terms.pitch);
-  r.j_contact(b.terms.contact);
-  r.j_periodicity(b.terms.periodicity);
-  r.normalized_torque(b.normalized_torque);
-  r.summed_torque_nm(b.summed_torque_nm);
-  r.late_touchdown_fraction(b.feedback_fraction.late_touchdown);
-  r.early_touchdown_fraction(b.feedback_fraction.early_touchdown);
-  r.early_toeoff_fraction(b.feedback_fraction.early_toeoff);
-  r.late_toeoff_fraction(b.feedback_fraction.late_toeoff);
-  r.outcome(to_wire(result.outcome));
-  r.ok(result.outcome == RolloutOutcome::kCompleted || result.outcome == RolloutOutcome::kFell);
-  if (!r.ok()) r.error(result.outcome_message.substr(0, 255));
-  r.fell(result.outcome == RolloutOutcome::kFell);
-  r.fall_time_s(r.fell() ? result.fall_time_s : -1.0);
-  r.distance_m(b.distance_m);
-  r.mean_speed_mps(b.mean_speed_mps);
-  r.wall_time_s(result.wall_time_s);
-}
-
-std::optional<std::string> check_parameters(const std::vector<msg::ParameterValue>& values) {
-  if (values.empty()) return std::string("no parameters");
-  std::set<std::string> seen;
-  CpgParameters p;
-  for (const auto& v : values) {
-    const std::string name = v.name().to_string();
-    if (!seen.insert(name).second) return fmt::format("parameter '{}' given twice", name);
-    try {
-      set_parameter(p, name, v.value(), "candidate");
-    } catch (const InputError& e) {
-      return std::string(e.what());
-    }
-  }
-  return std::nullopt;
-}
-
-msg::RolloutOutcome to_wire(RolloutOutcome outcome) {
-  switch (outcome) {
-    case RolloutOutcome::kCompleted: return msg::OUTCOME_COMPLETED;
-    case RolloutOutcome::kFell: return msg::OUTCOME_FELL;
-    case RolloutOutcome::kPlantFault: return msg::OUTCOME_PLANT_FAULT;
-    case RolloutOutcome::kDiverged: return msg::OUTCOME_DIVERGED;
+msg::RolloutOutcome to_wire(domain::Outcome o) {
+  switch (o) {
+    case domain::Outcome::kCompleted: return msg::OUTCOME_COMPLETED;
+    case domain::Outcome::kFell: return msg::OUTCOME_FELL;
+    case domain::Outcome::kRefused: return msg::OUTCOME_REFUSED;
+    case domain::Outcome::kPlantFault: return msg::OUTCOME_PLANT_FAULT;
+    case domain::Outcome::kDiverged: return msg::OUTCOME_DIVERGED;
+    case domain::Outcome::kError: return msg::OUTCOME_ERROR;
   }
   return msg::OUTCOME_ERROR;
 }
 
-std::string to_string(msg::RolloutOutcome o) {
-  switch (o) {
-    case msg::OUTCOME_COMPLETED: return "completed";
-    case msg::OUTCOME_FELL: return "fell";
-    case msg::OUTCOME_REFUSED: return "refused";
-    case msg::OUTCOME_PLANT_FAULT: return "plant_fault";
-    case msg::OUTCOME_DIVERGED: return "diverged";
-    case msg::OUTCOME_ERROR: return "error";
-  }
-  return "unknown";
+msg::WorkerKind to_wire(domain::WorkerKind k) {
+  return k == domain::WorkerKind::kHardware ? msg::WORKER_HARDWARE : msg::WORKER_SIM;
 }
 
-std::optional<msg::RolloutOutcome> outcome_from_string(const std::string& name) {
-  for (const msg::RolloutOutcome o : {msg::OUTCOME_COMPLETED, msg::OUTCOME_FELL, msg::OUTCOME_REFUSED,
-                                      msg::OUTCOME_PLANT_FAULT, msg::OUTCOME_DIVERGED, msg::OUTCOME_ERROR}) {
-    if (to_string(o) == name) return o;
-  }
-  return std::nullopt;
-}
-
-bool reissued_not_spent(msg::RolloutOutcome o) {
-  return o == msg::OUTCOME_REFUSED || o == msg::OUTCOME_PLANT_FAULT || o == msg::OUTCOME_DIVERGED;
-}
-
-std::optional<std::string> check_report(const msg::RolloutReport& r) {
-  if (r.worker_id().size() == 0) return std::string("empty worker_id");
-  if (static_cast<int>(r.outcome()) < msg::OUTCOME_COMPLETED || static_cast<int>(r.outcome()) > msg::OUTCOME_ERROR) {
-    return fmt::format("outcome {} is not a RolloutOutcome", static_cast<int>(r.outcome()));
-  }
-  const bool ran = r.outcome() == msg::OUTCOME_COMPLETED || r.outcome() == msg::OUTCOME_FELL;
-  if (r.ok() != ran) return fmt::format("ok = {} contradicts outcome {}", r.ok(), to_string(r.outcome()));
-  if (r.ok() && r.fell() != (r.outcome() == msg::OUTCOME_FELL)) {
-    return fmt::format("fell = {} contradicts outcome {}", r.fell(), to_string(r.outcome()));
-  }
-  if (!r.ok()) return std::nullopt;  // a failed rollout carries only its error
-  const std::pair<const char*, double> finite[] = {
-      {"cost", r.cost()},          {"j_feedback", r.j_feedback()},   {"j_distance", r.j_distance()},
-      {"j_pitch", r.j_pitch()},    {"j_contact", r.j_contact()},     {"j_periodicity", r.j_periodicity()},
-      {"distance_m", r.distance_m()}, {"wall_time_s", r.wall_time_s()}};
-  for (const auto& [name, value] : finite) {
-    if (!std::isfinite(value)) return fmt::format("{} is not finite ({})", name, value);
-  }
-  if (r.wall_time_s() < 0.0) return std::string("wall_time_s is negative");
-  return std::nullopt;
-}
-
-std::uint64_t worker_key(const std::string& worker_id) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : worker_id) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-
-bool worker_id_belongs_to(const std::string& worker_id, const std::string& common_name) {
-  if (common_name.empty()) return false;
-  if (worker_id == common_name) return true;
-  return worker_id.size() > common_name.size() + 1 && worker_id.compare(0, common_name.size(), common_name) == 0 &&
-         worker_id[common_name.size()] == '/';
-}
-
-std::string to_string(msg::StudyStatus s) {
+msg::StudyStatus to_wire(domain::StudyStatus s) {
   switch (s) {
-    case msg::STUDY_RUNNING: return "running";
-    case msg::STUDY_PAUSED: return "paused";
-    case msg::STUDY_DONE: return "done";
-    case msg::STUDY_FAILED: return "failed";
-    case msg::STUDY_STOPPED: return "stopped";
+    case domain::StudyStatus::kRunning: return msg::STUDY_RUNNING;
+    case domain::StudyStatus::kPaused: return msg::STUDY_PAUSED;
+    case domain::StudyStatus::kDone: return msg::STUDY_DONE;
+    case domain::StudyStatus::kFailed: return msg::STUDY_FAILED;
+    case domain::StudyStatus::kStopped: return msg::STUDY_STOPPED;
   }
-  return "unknown";
+  return msg::STUDY_FAILED;
 }
 
-std::string to_string(msg::WorkerKind k) { return k == msg::WORKER_HARDWARE ? "hardware" : "sim"; }
+msg::CommandKind to_wire(domain::CommandKind k) {
+  switch (k) {
+    case domain::CommandKind::kSubmit: return msg::COMMAND_SUBMIT;
+    case domain::CommandKind::kPause: return msg::COMMAND_PAUSE;
+    case domain::CommandKind::kResume: return msg::COMMAND_RESUME;
+    case domain::CommandKind::kStop: return msg::COMMAND_STOP;
+  }
+  return msg::COMMAND_STOP;
+}
+
+// ---- reports -------------------------------------------------------------------------------------
+
+msg::RolloutReport to_wire(const domain::RolloutReport& r) {
+  msg::RolloutReport w;
+  w.store_id(r.id.store_id);
+  w.study_id(u32(r.id.study_id));
+  w.trial_id(u32(r.id.trial_id));
+  w.attempt(u32(r.id.attempt));
+  w.worker_id(r.worker_id);
+  w.worker_kind(to_wire(r.worker_kind));
+  w.ok(r.ok());
+  w.outcome(to_wire(r.outcome));
+  w.error(r.error.substr(0, 255));
+  const domain::RolloutSummary& s = r.summary;
+  w.cost(s.cost);
+  w.j_feedback(s.terms.feedback);
+  w.j_distance(s.terms.distance);
+  w.j_pitch(s.terms.pitch);
+  w.j_contact(s.terms.contact);
+  w.j_periodicity(s.terms.periodicity);
+  w.normalized_torque(s.normalized_torque);
+  w.summed_torque_nm(s.summed_torque_nm);
+  w.late_touchdown_fraction(s.feedback.late_touchdown);
+  w.early_touchdown_fraction(s.feedback.early_touchdown);
+  w.early_toeoff_fraction(s.feedback.early_toeoff);
+  w.late_toeoff_fraction(s.feedback.late_toeoff);
+  w.fell(r.fell());
+  w.fall_time_s(s.fall_time_s);
+  w.distance_m(s.distance_m);
+  w.mean_speed_mps(s.mean_speed_mps);
+  w.wall_time_s(r.wall_time_s);
+  w.loop_jitter_p50_us(r.loop.jitter_p50_us);
+  w.loop_jitter_p99_us(r.loop.jitter_p99_us);
+  w.loop_jitter_max_us(r.loop.jitter_max_us);
+  w.loop_overruns(u32(r.loop.overruns));
+  return w;
+}
+
+domain::RolloutReport from_wire(const msg::RolloutReport& w) {
+  domain::RolloutReport r;
+  r.id = attempt_id(w.store_id(), w.study_id(), w.trial_id(), w.attempt());
+  r.worker_id = text(w.worker_id());
+  r.worker_kind = kind_from_wire(w.worker_kind());
+  r.outcome = outcome_from_wire(w.outcome());
+  // The wire carries ok and fell beside the outcome (for readers that predate outcomes); they must agree.
+  if (w.ok() != r.ok()) throw WireError(fmt::format("ok = {} contradicts outcome {}", w.ok(), to_string(r.outcome)));
+  if (w.ok() && w.fell() != r.fell()) {
+    throw WireError(fmt::format("fell = {} contradicts outcome {}", w.fell(), to_string(r.outcome)));
+  }
+  r.error = text(w.error());
+  domain::RolloutSummary& s = r.summary;
+  s.cost = w.cost();
+  s.terms.feedback = w.j_feedback();
+  s.terms.distance = w.j_distance();
+  s.terms.pitch = w.j_pitch();
+  s.terms.contact = w.j_contact();
+  s.terms.periodicity = w.j_periodicity();
+  s.normalized_torque = w.normalized_torque();
+  s.summed_torque_nm = w.summed_torque_nm();
+  s.feedback.late_touchdown = w.late_touchdown_fraction();
+  s.feedback.early_touchdown = w.early_touchdown_fraction();
+  s.feedback.early_toeoff = w.early_toeoff_fraction();
+  s.feedback.late_toeoff = w.late_toeoff_fraction();
+  s.fall_time_s = w.fall_time_s();
+  s.distance_m = w.distance_m();
+  s.mean_speed_mps = w.mean_speed_mps();
+  r.wall_time_s = w.wall_time_s();
+  r.loop.jitter_p50_us = w.loop_jitter_p50_us();
+  r.loop.jitter_p99_us = w.loop_jitter_p99_us();
+  r.loop.jitter_max_us = w.loop_jitter_max_us();
+  r.loop.overruns = static_cast<int>(std::min<std::uint32_t>(w.loop_overruns(), std::numeric_limits<int>::max()));
+  return r;
+}
+
+// ---- candidates ----------------------------------------------------------------------------------
+
+msg::Candidate to_wire(const domain::Candidate& c) {
+  msg::Candidate w;
+  w.store_id(c.id.store_id);
+  w.study_id(u32(c.id.study_id));
+  w.trial_id(u32(c.id.trial_id));
+  w.attempt(u32(c.id.attempt));
+  w.worker_id(c.worker_id);
+  w.lease_s(c.lease_s);
+  w.spec_key(c.spec_key);
+  msg::RolloutSpec rollout;
+  rollout.entrain_s(c.rollout.entrain_s);
+  rollout.eval_s(c.rollout.eval_s);
+  rollout.terrain(c.rollout.terrain);
+  rollout.seed(c.rollout.seed);
+  w.rollout(rollout);
+  w.parameters(to_wire(c.parameters));
+  return w;
+}
+
+domain::Candidate from_wire(const msg::Candidate& w) {
+  domain::Candidate c;
+  c.id = attempt_id(w.store_id(), w.study_id(), w.trial_id(), w.attempt());
+  c.worker_id = text(w.worker_id());
+  c.lease_s = w.lease_s();
+  c.spec_key = w.spec_key();
+  c.rollout.entrain_s = w.rollout().entrain_s();
+  c.rollout.eval_s = w.rollout().eval_s();
+  c.rollout.terrain = text(w.rollout().terrain());
+  c.rollout.seed = w.rollout().seed();
+  c.parameters = from_wire(w.parameters());
+  return c;
+}
+
+// ---- workers -------------------------------------------------------------------------------------
+
+msg::WorkerAnnouncement to_wire(const domain::WorkerAnnouncement& a) {
+  msg::WorkerAnnouncement w;
+  w.worker_key(a.worker_key);
+  w.worker_id(a.worker_id);
+  w.kind(to_wire(a.kind));
+  w.host(a.host);
+  w.pid(a.pid);
+  w.slots(u32(a.slots));
+  w.busy(u32(a.busy));
+  w.completed(a.completed);
+  w.accepting(a.accepting);
+  w.heartbeat_period_s(a.heartbeat_period_s);
+  w.status(a.status.substr(0, 255));
+  w.objective_version(u32(a.objective_version));
+  return w;
+}
+
+domain::WorkerAnnouncement from_wire(const msg::WorkerAnnouncement& w) {
+  domain::WorkerAnnouncement a;
+  a.worker_key = w.worker_key();
+  a.worker_id = text(w.worker_id());
+  a.kind = kind_from_wire(w.kind());
+  a.host = text(w.host());
+  a.pid = w.pid();
+  // Slot counts beyond int are no count a worker has (the coordinator refuses more than 4096 anyway).
+  a.slots = static_cast<int>(std::min<std::uint32_t>(w.slots(), std::numeric_limits<int>::max()));
+  a.busy = static_cast<int>(std::min<std::uint32_t>(w.busy(), std::numeric_limits<int>::max()));
+  a.completed = w.completed();
+  a.accepting = w.accepting();
+  a.heartbeat_period_s = w.heartbeat_period_s();
+  a.status = text(w.status());
+  a.objective_version = static_cast<int>(std::min<std::uint32_t>(w.objective_version(), std::numeric_limits<int>::max()));
+  return a;
+}
+
+// ---- commands ------------------------------------------------------------------------------------
+
+msg::StudyCommand to_wire(const domain::StudyCommand& c) {
+  msg::StudyCommand w;
+  w.correlation_id(c.correlation_id);
+  w.client_id(c.client_id);
+  w.kind(to_wire(c.kind));
+  w.study_id(u32(c.study_id));
+  w.study_yaml(c.study_yaml);
+  w.source_name(c.source_name.substr(0, 255));
+  return w;
+}
+
+domain::StudyCommand from_wire(const msg::StudyCommand& w) {
+  domain::StudyCommand c;
+  c.correlation_id = w.correlation_id();
+  c.client_id = text(w.client_id());
+  c.kind = checked_enum<domain::CommandKind>(static_cast<int>(w.kind()), msg::COMMAND_STOP, "kind");
+  if (w.study_id() > static_cast<std::uint32_t>(std::numeric_limits<int>::max())) {
+    throw WireError(fmt::format("study_id = {} is out of range", w.study_id()));
+  }
+  c.study_id = static_cast<int>(w.study_id());
+  c.study_yaml = w.study_yaml();
+  c.source_name = text(w.source_name());
+  return c;
+}
+
+msg::CommandReply to_wire(const domain::CommandReply& r) {
+  msg::CommandReply w;
+  w.correlation_id(r.correlation_id);
+  w.client_id(r.client_id);
+  w.ok(r.ok);
+  w.study_id(u32(r.study_id));
+  w.message(r.message.substr(0, 1023));
+  return w;
+}
+
+domain::CommandReply from_wire(const msg::CommandReply& w) {
+  domain::CommandReply r;
+  r.correlation_id = w.correlation_id();
+  r.client_id = text(w.client_id());
+  r.ok = w.ok();
+  r.study_id = static_cast<int>(std::min<std::uint32_t>(w.study_id(), std::numeric_limits<int>::max()));
+  r.message = text(w.message());
+  return r;
+}
+
+// ---- study state, trials, specs ------------------------------------------------------------------
+
+msg::StudyState to_wire(const domain::StudyState& s) {
+  msg::StudyState w;
+  w.study_id(u32(s.study_id));
+  w.name(s.name);
+  w.state(to_wire(s.status));
+  w.budget(u32(s.budget));
+  w.completed(u32(s.completed));
+  w.in_flight(u32(s.in_flight));
+  w.failed(u32(s.failed));
+  w.falls(u32(s.falls));
+  w.reissued(u32(s.reissued));
+  w.workers(u32(s.workers));
+  w.best_cost(s.best_cost);
+  w.best_trial(u32(s.best_trial));
+  w.best_params(to_wire(s.best_params));
+  w.best_normalized_torque(s.best_normalized_torque);
+  w.best_speed_mps(s.best_speed_mps);
+  w.elapsed_s(s.elapsed_s);
+  w.rollouts_per_s(s.rollouts_per_s);
+  w.message(s.message.substr(0, 255));
+  w.has_recommendation(s.has_recommendation);
+  if (s.has_recommendation) {
+    w.recommended_trial(u32(s.recommendation.trial));
+    w.recommended_predicted_cost(s.recommendation.predicted_cost);
+    w.recommended_params(to_wire(s.recommendation.params));
+  }
+  return w;
+}
+
+domain::StudyState from_wire(const msg::StudyState& w) {
+  auto count = [](std::uint32_t v) { return static_cast<int>(std::min<std::uint32_t>(v, std::numeric_limits<int>::max())); };
+  domain::StudyState s;
+  s.study_id = count(w.study_id());
+  s.name = text(w.name());
+  s.status = checked_enum<domain::StudyStatus>(static_cast<int>(w.state()), msg::STUDY_STOPPED, "state");
+  s.budget = count(w.budget());
+  s.completed = count(w.completed());
+  s.in_flight = count(w.in_flight());
+  s.failed = count(w.failed());
+  s.falls = count(w.falls());
+  s.reissued = count(w.reissued());
+  s.workers = count(w.workers());
+  s.best_cost = w.best_cost();
+  s.best_trial = count(w.best_trial());
+  s.best_params = from_wire(w.best_params());
+  s.best_normalized_torque = w.best_normalized_torque();
+  s.best_speed_mps = w.best_speed_mps();
+  s.elapsed_s = w.elapsed_s();
+  s.rollouts_per_s = w.rollouts_per_s();
+  s.message = text(w.message());
+  s.has_recommendation = w.has_recommendation();
+  if (s.has_recommendation) {
+    s.recommendation.trial = count(w.recommended_trial());
+    s.recommendation.predicted_cost = w.recommended_predicted_cost();
+    s.recommendation.params = from_wire(w.recommended_params());
+  }
+  return s;
+}
+
+msg::TrialRecord to_wire(const domain::TrialRecord& t) {
+  msg::TrialRecord w;
+  w.study_id(u32(t.study_id));
+  w.trial_id(u32(t.trial_id));
+  w.initial(t.initial);
+  w.parameters(to_wire(t.parameters));
+  w.report(to_wire(t.report));
+  return w;
+}
+
+domain::TrialRecord from_wire(const msg::TrialRecord& w) {
+  domain::TrialRecord t;
+  t.study_id = static_cast<int>(std::min<std::uint32_t>(w.study_id(), std::numeric_limits<int>::max()));
+  t.trial_id = static_cast<int>(std::min<std::uint32_t>(w.trial_id(), std::numeric_limits<int>::max()));
+  t.initial = w.initial();
+  t.parameters = from_wire(w.parameters());
+  t.report = from_wire(w.report());
+  return t;
+}
+
+msg::EmergencyStop to_wire(const domain::EmergencyStop& s) {
+  msg::EmergencyStop w;
+  w.stop_id(s.stop_id);
+  w.target(s.target);
+  w.release(s.release);
+  w.reason(s.reason.substr(0, 127));
+  w.sender(s.sender);
+  return w;
+}
+
+domain::EmergencyStop from_wire(const msg::EmergencyStop& w) {
+  return domain::EmergencyStop{w.stop_id(), text(w.target()), w.release(), text(w.reason()), text(w.sender())};
+}
+
+msg::StudySpecSample to_wire(const domain::SpecPublication& s) {
+  msg::StudySpecSample w;
+  w.spec_key(s.key);
+  w.objective_version(u32(s.objective_version));
+  w.sha256(s.sha256);
+  w.spec_json(s.json);
+  return w;
+}
+
+domain::SpecPublication from_wire(const msg::StudySpecSample& w) {
+  domain::SpecPublication s;
+  s.key = w.spec_key();
+  s.objective_version = static_cast<int>(std::min<std::uint32_t>(w.objective_version(), std::numeric_limits<int>::max()));
+  s.sha256 = text(w.sha256());
+  s.json = text(w.spec_json());
+  return s;
+}
 
 }  // namespace cpgmatch::dds

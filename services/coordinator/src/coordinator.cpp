@@ -11,8 +11,8 @@
 
 #include <fmt/format.h>
 
-#include "cpgmatch/dds/convert.hpp"
-#include "cpgmatch/dds/json.hpp"
+#include "cpgmatch/domain/report_json.hpp"
+#include "cpgmatch/domain/worker_identity.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/bo/model_state_json.hpp"
 #include "cpgmatch/service/validation_sets.hpp"
@@ -25,17 +25,6 @@ namespace {
 // otherwise publish one per report).
 constexpr double kStatePublishPeriod_s = 0.1;
 constexpr std::size_t kMaxReplies = 1024;
-
-msg::StudyStatus status_of(StudyStatus state) {
-  switch (state) {
-    case StudyStatus::kRunning: return msg::STUDY_RUNNING;
-    case StudyStatus::kPaused: return msg::STUDY_PAUSED;
-    case StudyStatus::kDone: return msg::STUDY_DONE;
-    case StudyStatus::kFailed: return msg::STUDY_FAILED;
-    case StudyStatus::kStopped: return msg::STUDY_STOPPED;
-  }
-  return msg::STUDY_FAILED;
-}
 
 // How many observations the study's saved model state was fitted on; nothing without a usable state
 // (restored_optimizer() then says why and replays every report).
@@ -51,17 +40,20 @@ std::optional<int> saved_state_observations(const study::StoredStudy* stored) {
 
 // What the optimizer was told for a stored trial: its cost, or a failure; and whether it fell.
 bo::Observation stored_observation(const study::StoredTrial& t) {
-  bool fell = false;
-  if (t.ok && t.report.is_object() && t.report.contains("fell") && t.report["fell"].is_boolean()) {
-    fell = t.report["fell"].get<bool>();
-  }
+  const std::optional<domain::RolloutReport> report = study::stored_report(t);
+  const bool fell = t.ok && report && report->fell();
   // A trial spent on faults (its last report a plant fault or a divergence) was never in the model.
-  bool excluded = false;
-  if (!t.ok && t.report.is_object() && t.report.contains("outcome") && t.report["outcome"].is_string()) {
-    const auto outcome = dds::outcome_from_string(t.report["outcome"].get<std::string>());
-    excluded = outcome && dds::reissued_not_spent(*outcome);
-  }
+  const bool excluded = !t.ok && report && domain::reissued_not_spent(report->outcome);
   return bo::Observation{t.x, t.cost, !t.ok, fell, excluded};
+}
+
+// What a restart accounts for a stored trial: its report, or a failure when the stored one is unreadable.
+domain::RolloutReport replayed_report(const study::StoredTrial& t, std::string* why) {
+  if (auto report = study::stored_report(t, why)) return *report;
+  domain::RolloutReport failed;
+  failed.outcome = domain::Outcome::kError;
+  failed.error = "stored report unreadable";
+  return failed;
 }
 
 // The origin a migrated spec is stored with: which release resolved it, and why it had to.
@@ -106,7 +98,7 @@ std::optional<std::string> Coordinator::identity_refusal(const std::string& work
     return std::string("DDS-Security is on and the sender's certificate is not known (no authenticated identity "
                        "for its participant)");
   }
-  if (!dds::worker_id_belongs_to(worker_id, *sender_identity)) {
+  if (!domain::worker_id_belongs_to(worker_id, *sender_identity)) {
     return fmt::format("the sender's certificate is CN={}, which does not own worker id '{}' (a worker id must be "
                        "its certificate's CN, or CN/suffix)",
                        *sender_identity, worker_id);
@@ -143,9 +135,9 @@ void Coordinator::resume_from_store(double now_s) {
     Study s;
     s.id = stored.study_id;
     s.name = stored.name;
-    s.state = study_status_from_string(stored.state).value_or(StudyStatus::kFailed);
+    s.state = domain::study_status_from_string(stored.state).value_or(StudyStatus::kFailed);
     s.message = stored.message;
-    if (!study_status_from_string(stored.state)) s.message = fmt::format("unknown stored state '{}'", stored.state);
+    if (!domain::study_status_from_string(stored.state)) s.message = fmt::format("unknown stored state '{}'", stored.state);
     s.created_at_s = stored.created_at_s;
     try {
       if (stored.spec.json.empty()) {
@@ -170,7 +162,7 @@ void Coordinator::resume_from_store(double now_s) {
       // Cannot happen for a study this service accepted, unless the file was edited by hand.
       // An open study is failed on record; a finished one keeps its stored state (its results stand: only
       // this release cannot re-derive its spec, e.g. a config folder missing here).
-      const bool was_open = service::is_open(s.state);
+      const bool was_open = domain::is_open(s.state);
       warn_(fmt::format("study {} in {}: its configuration no longer loads ({}); {}", s.id, store_.path(), e.what(),
                         was_open ? "marked failed" : "left as stored"));
       if (was_open) store_.set_state(s.id, to_string(StudyStatus::kFailed), e.what());
@@ -256,14 +248,10 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
   s.model = snapshot_of(*s.optimizer, s.told_trials);
   for (const auto* t : done) {
     const int trial_id = t->trial_id;
-    msg::RolloutReport report;
-    try {
-      report = dds::report_from_json(t->report);
-    } catch (const std::exception& e) {
-      warn_(fmt::format("study {} trial {}: stored report unreadable ({}); counted as failed", id, trial_id, e.what()));
-      report.ok(false);
-      report.outcome(msg::OUTCOME_ERROR);
-      report.error("stored report unreadable");
+    std::string why;
+    const domain::RolloutReport report = replayed_report(*t, &why);
+    if (!why.empty()) {
+      warn_(fmt::format("study {} trial {}: stored report unreadable ({}); counted as failed", id, trial_id, why));
     }
     account_report(s, trial_id, t->x, report);  // the optimizer already holds it: counters and best only
     // A finished study's records are served from the store (analyze, plot), not kept on the topic.
@@ -272,14 +260,7 @@ void Coordinator::open_study(Study&& fresh, const study::StoredStudy* stored, do
   std::sort(validated.begin(), validated.end(),
             [](const study::StoredTrial* a, const study::StoredTrial* b) { return a->trial_id < b->trial_id; });
   for (const auto* t : validated) {
-    msg::RolloutReport report;
-    try {
-      report = dds::report_from_json(t->report);
-    } catch (const std::exception& e) {
-      report.ok(false);
-      report.outcome(msg::OUTCOME_ERROR);
-      report.error("stored report unreadable");
-    }
+    const domain::RolloutReport report = replayed_report(*t, nullptr);
     account_validation(s, t->trial_id, report);
     if (is_open(s)) out_.publish_trial(make_trial_record(s, t->trial_id, t->x, report));
   }
@@ -314,25 +295,25 @@ bo::BayesianOptimizer Coordinator::restored_optimizer(const Study& s, const stud
   return bo::BayesianOptimizer::rebuild(s.config.space, s.config.optimizer, observations);
 }
 
-void Coordinator::submit(const msg::StudyCommand& command, double now_s, msg::CommandReply& reply) {
-  const std::string source = command.source_name().size() ? command.source_name().to_string() : "submitted study";
+void Coordinator::submit(const domain::StudyCommand& command, double now_s, domain::CommandReply& reply) {
+  const std::string source = !command.source_name.empty() ? command.source_name : "submitted study";
   std::shared_ptr<const study::StudySpec> spec;
-  if (command.study_yaml().size() > study::kMaxStudyFileBytes) {
+  if (command.study_yaml.size() > study::kMaxStudyFileBytes) {
     // Refused before any parsing: a 12 MB file of 700k keys took the service to 800 MB and stalled its
     // event loop for 2.5 s (a healthy worker was declared silent meanwhile).
-    reply.ok(false);
-    reply.message(fmt::format("{}: {} bytes, more than a study file may have ({} bytes)", source,
-                              command.study_yaml().size(), study::kMaxStudyFileBytes));
-    warn_(fmt::format("submit from {} refused: {}", command.client_id().to_string(), reply.message().to_string()));
+    reply.ok = false;
+    reply.message = fmt::format("{}: {} bytes, more than a study file may have ({} bytes)", source,
+                              command.study_yaml.size(), study::kMaxStudyFileBytes);
+    warn_(fmt::format("submit from {} refused: {}", command.client_id, reply.message));
     return;
   }
   try {
     spec = std::make_shared<const study::StudySpec>(
-        study::StudySpec::resolve(command.study_yaml(), source, spec_defaults()));
+        study::StudySpec::resolve(command.study_yaml, source, spec_defaults()));
   } catch (const std::exception& e) {
-    reply.ok(false);
-    reply.message(e.what());
-    warn_(fmt::format("submit from {} refused: {}", command.client_id().to_string(), e.what()));
+    reply.ok = false;
+    reply.message = e.what();
+    warn_(fmt::format("submit from {} refused: {}", command.client_id, e.what()));
     return;
   }
   Study s;
@@ -340,53 +321,53 @@ void Coordinator::submit(const msg::StudyCommand& command, double now_s, msg::Co
   s.config = spec->config();
   s.name = s.config.name;
   s.created_at_s = wall_now();
-  s.id = store_.create_study(s.name, command.study_yaml(), source, s.created_at_s,
+  s.id = store_.create_study(s.name, command.study_yaml, source, s.created_at_s,
                              study::StoredSpec{spec->canonical_json(), spec->sha256(), study::kOriginSubmitted});
   const int id = s.id;
   info_(fmt::format("study {} '{}' submitted: budget {}, {} parameters", id, s.name, s.config.budget,
                     s.config.space.size()));
   open_study(std::move(s), nullptr, now_s);
-  reply.ok(true);
-  reply.study_id(static_cast<std::uint32_t>(id));
-  reply.message(fmt::format("study {} '{}' accepted (spec {})", id, studies_.at(id).name, spec->sha256().substr(0, 16)));
+  reply.ok = true;
+  reply.study_id = id;
+  reply.message = fmt::format("study {} '{}' accepted (spec {})", id, studies_.at(id).name, spec->sha256().substr(0, 16));
 }
 
-void Coordinator::handle_command(const msg::StudyCommand& command, double now_s) {
-  const auto key = std::make_pair(command.client_id().to_string(), command.correlation_id());
+void Coordinator::handle_command(const domain::StudyCommand& command, double now_s) {
+  const auto key = std::make_pair(command.client_id, command.correlation_id);
   if (const auto done = replies_.find(key); done != replies_.end()) {
     out_.reply(done->second);  // a re-sent command: same answer, not a second execution
     return;
   }
-  msg::CommandReply reply;
-  reply.correlation_id(command.correlation_id());
-  reply.client_id(command.client_id());
-  reply.study_id(command.study_id());
-  reply.ok(false);
+  domain::CommandReply reply;
+  reply.correlation_id = command.correlation_id;
+  reply.client_id = command.client_id;
+  reply.study_id = command.study_id;
+  reply.ok = false;
   try {
-    if (command.kind() == msg::COMMAND_SUBMIT) {
+    if (command.kind == domain::CommandKind::kSubmit) {
       submit(command, now_s, reply);
     } else {
-      Study* s = find_study(static_cast<int>(command.study_id()));
+      Study* s = find_study(command.study_id);
       if (s == nullptr) {
-        reply.message(fmt::format("no study {}", command.study_id()));
+        reply.message = fmt::format("no study {}", command.study_id);
       } else {
-        const StudyStatus wanted = command.kind() == msg::COMMAND_PAUSE    ? StudyStatus::kPaused
-                                   : command.kind() == msg::COMMAND_RESUME ? StudyStatus::kRunning
+        const StudyStatus wanted = command.kind == domain::CommandKind::kPause    ? StudyStatus::kPaused
+                                   : command.kind == domain::CommandKind::kResume ? StudyStatus::kRunning
                                                                            : StudyStatus::kStopped;
         std::optional<StudyStatus> target;
         if (wanted == StudyStatus::kPaused && s->state == StudyStatus::kRunning) target = wanted;
         if (wanted == StudyStatus::kRunning && s->state == StudyStatus::kPaused) target = wanted;
         if (wanted == StudyStatus::kStopped && is_open(*s)) target = wanted;
         if (!target) {
-          reply.message(fmt::format("study {} is {}: nothing to do", s->id, to_string(s->state)));
-          reply.ok(s->state == wanted);
+          reply.message = fmt::format("study {} is {}: nothing to do", s->id, to_string(s->state));
+          reply.ok = s->state == wanted;
         } else {
           store_.set_state(s->id, to_string(*target), "");
           s->state = *target;
           s->dirty = true;
-          reply.ok(true);
-          reply.message(fmt::format("study {} is {}", s->id, to_string(*target)));
-          info_(reply.message().to_string());
+          reply.ok = true;
+          reply.message = fmt::format("study {} is {}", s->id, to_string(*target));
+          info_(reply.message);
           publish_state(*s, now_s);
         }
       }
@@ -394,17 +375,17 @@ void Coordinator::handle_command(const msg::StudyCommand& command, double now_s)
   } catch (const study::StoreWriteError& e) {
     // The store cannot record the command's effect: tell the client why, then stop the service (the
     // caller sees the same error) rather than go on acknowledging what it cannot record.
-    reply.ok(false);
-    reply.message(e.what());
+    reply.ok = false;
+    reply.message = e.what();
     out_.reply(reply);
     throw;
   } catch (const std::exception& e) {
-    reply.ok(false);
-    reply.message(fmt::format("internal error: {}", e.what()));
-    warn_(reply.message().to_string());
+    reply.ok = false;
+    reply.message = fmt::format("internal error: {}", e.what());
+    warn_(reply.message);
   }
-  if (!reply.ok() && command.kind() != msg::COMMAND_SUBMIT) {
-    warn_(fmt::format("command from {} refused: {}", command.client_id().to_string(), reply.message().to_string()));
+  if (!reply.ok && command.kind != domain::CommandKind::kSubmit) {
+    warn_(fmt::format("command from {} refused: {}", command.client_id, reply.message));
   }
   replies_[key] = reply;
   reply_order_.push_back(key);
@@ -417,24 +398,24 @@ void Coordinator::handle_command(const msg::StudyCommand& command, double now_s)
 
 // ---- workers -------------------------------------------------------------------------------------
 
-void Coordinator::handle_worker(const msg::WorkerAnnouncement& w, double now_s,
+void Coordinator::handle_worker(const domain::WorkerAnnouncement& w, double now_s,
                                 const std::optional<std::string>& sender_identity) {
-  const std::string id = w.worker_id().to_string();
+  const std::string id = w.worker_id;
   if (id.empty()) return reject("worker announcement", "empty worker_id");
-  if (w.worker_key() != dds::worker_key(id)) return reject("worker announcement " + id, "worker_key is not the hash of worker_id");
+  if (w.worker_key != domain::worker_key(id)) return reject("worker announcement " + id, "worker_key is not the hash of worker_id");
   // Before anything of it is taken: a participant that may not speak for `id` neither joins it nor keeps
   // it alive (its heartbeats would hide the real worker's silence).
   if (auto why = identity_refusal(id, sender_identity)) return reject("worker announcement " + id, *why);
-  if (w.slots() < 1 || w.slots() > 4096) return reject("worker announcement " + id, fmt::format("slots = {}", w.slots()));
+  if (w.slots < 1 || w.slots > 4096) return reject("worker announcement " + id, fmt::format("slots = {}", w.slots));
   const AnnouncementEffect effect =
-      pool_.announce(id, w.worker_key(), static_cast<int>(w.slots()), w.kind() == msg::WORKER_HARDWARE, w.accepting(),
-                     w.status().to_string(), now_s);
+      pool_.announce(id, w.worker_key, w.slots, w.kind == domain::WorkerKind::kHardware, w.accepting,
+                     w.status, now_s);
   if (effect.accepts_again) {
     // Accepting again (an emergency stop released): its refusals no longer hold.
     for (auto& [sid, s] : studies_) s.refused_by.erase(id);
   }
   if (effect.joined) {
-    info_(fmt::format("worker {} joined: {} slots, {} on {}", id, w.slots(), dds::to_string(w.kind()), w.host().to_string()));
+    info_(fmt::format("worker {} joined: {} slots, {} on {}", id, w.slots, domain::to_string(w.kind), w.host));
   }
   if (effect.joined || effect.availability_changed) {
     for (auto& [sid, s] : studies_) s.dirty = true;
@@ -473,27 +454,21 @@ void Coordinator::drop_worker(const std::string& worker_id, const std::string& w
 
 // ---- candidates ----------------------------------------------------------------------------------
 
-msg::Candidate Coordinator::make_candidate(const Study& study, int trial_id, const InFlight& f) const {
-  msg::Candidate c;
-  c.store_id(store_.store_id());
-  c.study_id(static_cast<std::uint32_t>(study.id));
-  c.trial_id(static_cast<std::uint32_t>(trial_id));
-  c.attempt(static_cast<std::uint32_t>(f.attempt));
-  c.worker_id(f.worker_id);
-  c.lease_s(study.config.effective_lease_s());
-  c.spec_key(study.spec->key());
-  msg::RolloutSpec spec;
-  spec.entrain_s(study.config.entrain_s);
-  spec.eval_s(study.config.eval_s);
-  spec.terrain(study.config.terrain);
+domain::Candidate Coordinator::make_candidate(const Study& study, int trial_id, const InFlight& f) const {
+  domain::Candidate c;
+  c.id = domain::AttemptId{store_.store_id(), study.id, trial_id, f.attempt};
+  c.worker_id = f.worker_id;
+  c.lease_s = study.config.effective_lease_s();
+  c.spec_key = study.spec->key();
+  c.rollout.entrain_s = study.config.entrain_s;
+  c.rollout.eval_s = study.config.eval_s;
+  c.rollout.terrain = study.config.terrain;
   // Each trial gets its own rollout seed (sensor noise, rough ground): the optimizer then sees the
   // rollout-to-rollout spread it must be robust to, instead of one frozen noise realisation that a lucky
   // point can exploit. Still a pure function of (study seed, trial id): same seed, same study.
-  spec.seed(derived_seed(study.config.optimizer.seed, static_cast<std::uint64_t>(trial_id)));
-  c.rollout(spec);
-  std::map<std::string, double> full = to_map(study.spec->base_parameters());
-  for (const auto& [name, value] : study.config.space.to_named(f.x)) full[name] = value;
-  c.parameters(dds::to_wire(full));
+  c.rollout.seed = derived_seed(study.config.optimizer.seed, static_cast<std::uint64_t>(trial_id));
+  c.parameters = to_map(study.spec->base_parameters());
+  for (const auto& [name, value] : study.config.space.to_named(f.x)) c.parameters[name] = value;
   return c;
 }
 
@@ -566,49 +541,47 @@ bool Coordinator::may_serve(const Study& study, const PoolWorker& worker, double
   return r == study.refused_by.end() || now_s >= r->second.until_s;
 }
 
-void Coordinator::fail_on_failure_streak(Study& s, const msg::RolloutReport& r) {
+void Coordinator::fail_on_failure_streak(Study& s, const domain::RolloutReport& r) {
   if (s.state != StudyStatus::kRunning || s.consecutive_failures < options_.max_consecutive_failures) return;
   s.state = StudyStatus::kFailed;
   s.message = fmt::format("{} rollouts in a row could not run; last error: {}", s.consecutive_failures,
-                          r.error().to_string());
+                          r.error);
   store_.set_state(s.id, to_string(s.state), s.message);
   warn_(fmt::format("study {} failed: {}", s.id, s.message));
 }
 
-void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutReport& r, double now_s) {
+void Coordinator::handle_unspent(Study& s, int trial_id, const domain::RolloutReport& r, double now_s) {
   InFlight& f = s.in_flight.at(trial_id);
-  const std::string worker_id = r.worker_id().to_string();
-  const bool fault = r.outcome() != msg::OUTCOME_REFUSED;
-  const std::string outcome = dds::to_string(r.outcome());
+  const std::string worker_id = r.worker_id;
+  const bool fault = r.outcome != domain::Outcome::kRefused;
+  const std::string outcome = domain::to_string(r.outcome);
   pool_.release(worker_id, s.id, trial_id);
   int faults = 0;
   if (fault) {
-    faults = store_.record_unspent_attempt(s.id, trial_id, static_cast<int>(r.attempt()), worker_id, outcome,
-                                           dds::to_json(r), true, wall_now());
+    faults = store_.record_unspent_attempt(r, true, wall_now());
   } else {
     // The worker cannot run this study now: keep the study's work off it for a while, twice as long after
     // each identical refusal (at most a minute), or until it says it accepts again, so a refusal never
     // turns into a loop of refusals. Only a new reason is recorded: a study that waits for hours for a
     // worker of its version does not fill the store with the same refusal.
     Refusal& last = s.refused_by[worker_id];
-    const bool same = last.why == r.error().to_string();
+    const bool same = last.why == r.error;
     last.backoff_s = same ? std::min(2.0 * last.backoff_s, 60.0) : options_.refusal_backoff_s;
     last.until_s = now_s + last.backoff_s;
     if (!same) {
-      last.why = r.error().to_string();
-      store_.record_unspent_attempt(s.id, trial_id, static_cast<int>(r.attempt()), worker_id, outcome, dds::to_json(r),
-                                    false, wall_now());
+      last.why = r.error;
+      store_.record_unspent_attempt(r, false, wall_now());
     }
   }
   // A simulated rollout is deterministic for its spec, point and seed: one that diverged diverges again, so
   // it is spent at once. A robot's faults (a watchdog, a glitch) may well not repeat.
-  const bool deterministic = r.outcome() == msg::OUTCOME_DIVERGED && r.worker_kind() == msg::WORKER_SIM;
+  const bool deterministic = r.outcome == domain::Outcome::kDiverged && r.worker_kind == domain::WorkerKind::kSimulation;
   if (fault && (deterministic || faults >= options_.max_fault_retries)) {
     // Spent after all, as a failure the model never sees (excluded): the point was tried often enough.
     const Eigen::VectorXd x = f.x;
     const bool validation = f.validation;
-    if (!store_.complete_trial(s.id, trial_id, false, 0.0, dds::to_json(r), wall_now())) return;
-    msg::Candidate retired = make_candidate(s, trial_id, f);
+    if (!store_.complete_trial(r, wall_now())) return;
+    const domain::Candidate retired = make_candidate(s, trial_id, f);
     s.in_flight.erase(trial_id);
     if (validation) account_validation(s, trial_id, r);
     else count_report(s, trial_id, x, r);
@@ -616,7 +589,7 @@ void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutRepor
     if (!s.records_retired) out_.publish_trial(make_trial_record(s, trial_id, x, r));
     warn_(fmt::format("study {} trial {}: {} {} times (last on {}: {}); spent as a failure the model does not learn "
                       "from",
-                      s.id, trial_id, outcome, faults, worker_id, r.error().to_string()));
+                      s.id, trial_id, outcome, faults, worker_id, r.error));
     fail_on_failure_streak(s, r);
     finish_if_complete(s);
     s.dirty = true;
@@ -624,7 +597,7 @@ void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutRepor
     return;
   }
   info_(fmt::format("study {} trial {}: {} by {} ({}); re-issuing{}", s.id, trial_id, outcome, worker_id,
-                    r.error().to_string(), fault ? fmt::format(" (fault {} of at most {})", faults, options_.max_fault_retries) : ""));
+                    r.error, fault ? fmt::format(" (fault {} of at most {})", faults, options_.max_fault_retries) : ""));
   f.worker_id.clear();
   ++s.reissued;
   s.dirty = true;
@@ -633,16 +606,11 @@ void Coordinator::handle_unspent(Study& s, int trial_id, const msg::RolloutRepor
 bool Coordinator::is_study_robot(const Study& study, const PoolWorker& worker) {
   const std::string& robot = study.config.robot;
   // The same rule as a worker id and its certificate: the robot's name, or the name and a suffix.
-  return !worker.hardware || robot.empty() || dds::worker_id_belongs_to(worker.id, robot);
+  return !worker.hardware || robot.empty() || domain::worker_id_belongs_to(worker.id, robot);
 }
 
-msg::StudySpecSample Coordinator::spec_sample(const Study& s) {
-  msg::StudySpecSample sample;
-  sample.spec_key(s.spec->key());
-  sample.objective_version(s.spec->objective_version());
-  sample.sha256(s.spec->sha256());
-  sample.spec_json(s.spec->canonical_json());
-  return sample;
+domain::SpecPublication Coordinator::spec_sample(const Study& s) {
+  return domain::SpecPublication{s.spec->key(), s.spec->objective_version(), s.spec->sha256(), s.spec->canonical_json()};
 }
 
 study::SpecDefaults Coordinator::spec_defaults() const {
@@ -752,13 +720,13 @@ void Coordinator::note_hardware_wait(Study& s, double now_s) {
   s.dirty = true;
 }
 
-void Coordinator::account_validation(Study& s, int trial_id, const msg::RolloutReport& r) {
+void Coordinator::account_validation(Study& s, int trial_id, const domain::RolloutReport& r) {
   ++s.validated;
   s.validation_trials.push_back(trial_id);
   count_outcome(s, r);
 }
 
-bool Coordinator::count_outcome(Study& s, const msg::RolloutReport& r) {
+bool Coordinator::count_outcome(Study& s, const domain::RolloutReport& r) {
   s.dirty = true;
   if (!r.ok()) {
     ++s.failed;
@@ -988,29 +956,29 @@ int Coordinator::apply_model_results() { return models_.run_finished(); }
 
 // ---- reports -------------------------------------------------------------------------------------
 
-void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
+void Coordinator::handle_report(const domain::RolloutReport& r, double now_s,
                                 const std::optional<std::string>& sender_identity) {
-  const std::string what = fmt::format("report for study {} trial {} from {}", r.study_id(), r.trial_id(),
-                                       r.worker_id().to_string());
-  if (r.store_id() != 0 && r.store_id() != store_.store_id()) {
+  const std::string what = fmt::format("report for study {} trial {} from {}", r.id.study_id, r.id.trial_id,
+                                       r.worker_id);
+  if (r.id.store_id != 0 && r.id.store_id != store_.store_id()) {
     // Another store's candidate (a second optimizer on this domain, or one that ran before on the same
     // workers): its study and trial ids mean nothing here. Not a malformed sample; said once per store.
-    if (foreign_stores_.insert(r.store_id()).second) {
+    if (foreign_stores_.insert(r.id.store_id).second) {
       warn_(fmt::format("ignoring reports for another store (store_id {:016x}; this one is {:016x}): another "
                         "optimizer on this domain?",
-                        r.store_id(), store_.store_id()));
+                        r.id.store_id, store_.store_id()));
     }
     ++foreign_reports_;
     return;
   }
-  if (auto why = dds::check_report(r)) return reject(what, *why);
-  Study* s = find_study(static_cast<int>(r.study_id()));
+  if (auto why = domain::check_report(r)) return reject(what, *why);
+  Study* s = find_study(r.id.study_id);
   if (s == nullptr) return reject(what, "unknown study");
-  if (r.ok() && s->config.optimizer.cost_transform == bo::CostTransform::kLog && !(r.cost() > 0.0)) {
+  if (r.ok() && s->config.optimizer.cost_transform == bo::CostTransform::kLog && !(r.summary.cost > 0.0)) {
     // The model fits log(cost): a non-positive cost would poison it. No rollout cost is <= 0 (J_distance > 0).
-    return reject(what, fmt::format("cost {} must be > 0 in a study with cost_transform: log", r.cost()));
+    return reject(what, fmt::format("cost {} must be > 0 in a study with cost_transform: log", r.summary.cost));
   }
-  const int trial_id = static_cast<int>(r.trial_id());
+  const int trial_id = r.id.trial_id;
   const auto it = s->in_flight.find(trial_id);
   if (it == s->in_flight.end()) {
     if (trial_id < s->next_trial_id) {
@@ -1019,38 +987,38 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
     }
     return reject(what, "no such candidate was ever issued");
   }
-  if (static_cast<int>(r.attempt()) > it->second.attempt) {
-    return reject(what, fmt::format("attempt {} was never issued (last: {})", r.attempt(), it->second.attempt));
+  if (r.id.attempt > it->second.attempt) {
+    return reject(what, fmt::format("attempt {} was never issued (last: {})", r.id.attempt, it->second.attempt));
   }
-  if (const auto to = it->second.issued_to.find(static_cast<int>(r.attempt()));
-      to == it->second.issued_to.end() || to->second != r.worker_id().to_string()) {
-    return reject(what, fmt::format("attempt {} was assigned to {}", r.attempt(),
+  if (const auto to = it->second.issued_to.find(r.id.attempt);
+      to == it->second.issued_to.end() || to->second != r.worker_id) {
+    return reject(what, fmt::format("attempt {} was assigned to {}", r.id.attempt,
                                     to == it->second.issued_to.end() ? std::string("no worker") : to->second));
   }
   // The worker_id names the assigned worker; with DDS-Security it must also be the sender's own.
-  if (auto why = identity_refusal(r.worker_id().to_string(), sender_identity)) return reject(what, *why);
+  if (auto why = identity_refusal(r.worker_id, sender_identity)) return reject(what, *why);
   // The assigned worker answered an attempt of its own: it is no longer on probation (counted or not).
-  if (pool_.end_probation(r.worker_id().to_string())) {
-    const PoolWorker* w = pool_.find(r.worker_id().to_string());
-    info_(fmt::format("worker {} reported again: off probation, all its {} slots usable", r.worker_id().to_string(),
+  if (pool_.end_probation(r.worker_id)) {
+    const PoolWorker* w = pool_.find(r.worker_id);
+    info_(fmt::format("worker {} reported again: off probation, all its {} slots usable", r.worker_id,
                       w == nullptr ? 0 : w->slots));
   }
-  if (dds::reissued_not_spent(r.outcome())) {
-    if (static_cast<int>(r.attempt()) != it->second.attempt || it->second.worker_id != r.worker_id().to_string()) {
+  if (domain::reissued_not_spent(r.outcome)) {
+    if (r.id.attempt != it->second.attempt || it->second.worker_id != r.worker_id) {
       info_(fmt::format("ignored a stale {} ({}): attempt {} is no longer the trial's current one", what,
-                        dds::to_string(r.outcome()), r.attempt()));
+                        domain::to_string(r.outcome), r.id.attempt));
       return;
     }
     return handle_unspent(*s, trial_id, r, now_s);
   }
   const Eigen::VectorXd x = it->second.x;
   const bool validation = it->second.validation;
-  if (!store_.complete_trial(s->id, trial_id, r.ok(), r.ok() ? r.cost() : 0.0, dds::to_json(r), wall_now())) {
+  if (!store_.complete_trial(r, wall_now())) {
     info_(fmt::format("ignored a duplicate {} (already in the store)", what));
     return;
   }
   pool_.release(it->second.worker_id, s->id, trial_id);
-  msg::Candidate retired = make_candidate(*s, trial_id, it->second);
+  const domain::Candidate retired = make_candidate(*s, trial_id, it->second);
   s->in_flight.erase(it);
   if (validation) {
     account_validation(*s, trial_id, r);
@@ -1059,28 +1027,28 @@ void Coordinator::handle_report(const msg::RolloutReport& r, double now_s,
   }
   out_.retire_candidate(retired);
   if (!s->records_retired) out_.publish_trial(make_trial_record(*s, trial_id, x, r));  // else: the store has it
-  if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id().to_string(), r.error().to_string()));
+  if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id, r.error));
   fail_on_failure_streak(*s, r);
   finish_if_complete(*s);
   if (!is_open(*s)) publish_state(*s, now_s);
 }
 
-void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
-  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.cost() : 0.0, !r.ok(), r.ok() && r.fell(),
-                                                  !r.ok() && dds::reissued_not_spent(r.outcome())});
+void Coordinator::count_report(Study& s, int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& r) {
+  s.untold.emplace_back(trial_id, bo::Observation{x, r.ok() ? r.summary.cost : 0.0, !r.ok(), r.ok() && r.fell(),
+                                                  !r.ok() && domain::reissued_not_spent(r.outcome)});
   account_report(s, trial_id, x, r);
 }
 
-void Coordinator::account_report(Study& s, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& r) {
+void Coordinator::account_report(Study& s, int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& r) {
   ++s.completed;
   if (!count_outcome(s, r)) return;
-  if (!(r.cost() >= s.best_cost)) {  // also true while best_cost is NaN
-    s.best_cost = r.cost();
+  if (!(r.summary.cost >= s.best_cost)) {  // also true while best_cost is NaN
+    s.best_cost = r.summary.cost;
     s.best_trial = trial_id;
     s.best_params = s.config.space.to_named(x);
     s.best_x = x;
-    s.best_normalized_torque = r.normalized_torque();
-    s.best_speed_mps = r.mean_speed_mps();
+    s.best_normalized_torque = r.summary.normalized_torque;
+    s.best_speed_mps = r.summary.mean_speed_mps;
   }
 }
 
@@ -1096,52 +1064,50 @@ void Coordinator::finish_if_complete(Study& s) {
   s.dirty = true;
 }
 
-msg::TrialRecord Coordinator::make_trial_record(const Study& s, int trial_id, const Eigen::VectorXd& x,
-                                                const msg::RolloutReport& r) const {
-  msg::TrialRecord t;
-  t.study_id(static_cast<std::uint32_t>(s.id));
-  t.trial_id(static_cast<std::uint32_t>(trial_id));
-  t.initial(trial_id < s.config.optimizer.initial_points);
-  t.parameters(dds::to_wire(s.config.space.to_named(x)));
-  msg::RolloutReport report = r;
-  report.study_id(t.study_id());
-  report.trial_id(t.trial_id());
-  t.report(report);
+domain::TrialRecord Coordinator::make_trial_record(const Study& s, int trial_id, const Eigen::VectorXd& x,
+                                                   const domain::RolloutReport& r) const {
+  domain::TrialRecord t;
+  t.study_id = s.id;
+  t.trial_id = trial_id;
+  t.initial = trial_id < s.config.optimizer.initial_points;
+  t.parameters = s.config.space.to_named(x);
+  t.report = r;
+  t.report.id.study_id = s.id;
+  t.report.id.trial_id = trial_id;
   return t;
 }
 
 // ---- time ----------------------------------------------------------------------------------------
 
 void Coordinator::publish_state(Study& s, double now_s) {
-  msg::StudyState st;
-  st.study_id(static_cast<std::uint32_t>(s.id));
-  st.name(s.name);
-  st.state(status_of(s.state));
+  domain::StudyState st;
+  st.study_id = s.id;
+  st.name = s.name;
+  st.status = s.state;
   // Both phases count: budget = exploration budget + validation sets, completed = reports of either.
   const int sets = s.config.validation.enabled ? s.config.validation.hardware_sets : 0;
-  st.budget(static_cast<std::uint32_t>(s.config.budget + sets));
-  st.completed(static_cast<std::uint32_t>(s.completed + s.validated));
-  st.in_flight(static_cast<std::uint32_t>(s.in_flight.size()));
-  st.failed(static_cast<std::uint32_t>(s.failed));
-  st.falls(static_cast<std::uint32_t>(s.falls));
-  st.reissued(static_cast<std::uint32_t>(s.reissued));
-  st.workers(static_cast<std::uint32_t>(pool_.size()));
-  st.best_cost(s.best_cost);
-  st.best_trial(static_cast<std::uint32_t>(s.best_trial));
-  st.best_params(dds::to_wire(s.best_params));
-  st.best_normalized_torque(s.best_normalized_torque);
-  st.best_speed_mps(s.best_speed_mps);
+  st.budget = s.config.budget + sets;
+  st.completed = s.completed + s.validated;
+  st.in_flight = static_cast<int>(s.in_flight.size());
+  st.failed = s.failed;
+  st.falls = s.falls;
+  st.reissued = s.reissued;
+  st.workers = pool_.size();
+  st.best_cost = s.best_cost;
+  st.best_trial = s.best_trial;
+  st.best_params = s.best_params;
+  st.best_normalized_torque = s.best_normalized_torque;
+  st.best_speed_mps = s.best_speed_mps;
   // Wall time, as created_at_s is (it survives restarts): after the clock is stepped back past a study's
   // creation, 0 rather than a negative age.
-  st.elapsed_s(std::max(0.0, wall_now() - s.created_at_s));
+  st.elapsed_s = std::max(0.0, wall_now() - s.created_at_s);
   const double session = now_s - s.session_start_s;
-  st.rollouts_per_s(session > 0.0 ? (s.completed - s.completed_at_session_start) / session : 0.0);
-  st.message(s.message);
+  st.rollouts_per_s = session > 0.0 ? (s.completed - s.completed_at_session_start) / session : 0.0;
+  st.message = s.message;
   if (s.model.has_recommendation) {
-    st.has_recommendation(true);
-    st.recommended_trial(static_cast<std::uint32_t>(s.model.recommended_trial));
-    st.recommended_predicted_cost(s.model.recommended_predicted_cost);
-    st.recommended_params(dds::to_wire(s.model.recommended_params));
+    st.has_recommendation = true;
+    st.recommendation = domain::Recommendation{s.model.recommended_trial, s.model.recommended_predicted_cost,
+                                               s.model.recommended_params};
   }
   out_.publish_state(st);
   s.dirty = false;
@@ -1155,9 +1121,9 @@ void Coordinator::retire_finished(Study& s, double now_s) {
   std::vector<int> records = s.told_trials;
   records.insert(records.end(), s.validation_trials.begin(), s.validation_trials.end());
   for (const int trial_id : records) {
-    msg::TrialRecord key;
-    key.study_id(static_cast<std::uint32_t>(s.id));
-    key.trial_id(static_cast<std::uint32_t>(trial_id));
+    domain::TrialRecord key;
+    key.study_id = s.id;
+    key.trial_id = trial_id;
     out_.retire_trial(key);
   }
   s.records_retired = true;

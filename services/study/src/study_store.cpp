@@ -11,6 +11,8 @@
 
 #include <fmt/format.h>
 
+#include "cpgmatch/domain/report_json.hpp"
+
 namespace cpgmatch::study {
 
 namespace {
@@ -98,6 +100,19 @@ Eigen::VectorXd json_vector(const nlohmann::json& a) {
 }  // namespace
 
 std::string to_string(TrialStatus s) { return s == TrialStatus::kDone ? "done" : "in_flight"; }
+
+std::optional<domain::RolloutReport> stored_report(const StoredTrial& trial, std::string* why) {
+  if (trial.status != TrialStatus::kDone || !trial.report.is_object()) {
+    if (why != nullptr) *why = trial.status != TrialStatus::kDone ? "not done" : "no report stored";
+    return std::nullopt;
+  }
+  try {
+    return domain::report_from_json(trial.report);
+  } catch (const std::exception& e) {
+    if (why != nullptr) *why = e.what();
+    return std::nullopt;
+  }
+}
 
 StudyStore::StudyStore(const std::string& path, Durability durability) : path_(path) {
   // A new store is readable by its owner only (it holds every study and report); SQLite gives its -wal
@@ -216,12 +231,12 @@ void StudyStore::set_spec(int study_id, const StoredSpec& spec) {
   s.bind(1, spec.json).bind(2, spec.sha256).bind(3, spec.origin).bind(4, study_id).run();
 }
 
-int StudyStore::record_unspent_attempt(int study_id, int trial_id, int attempt, const std::string& worker_id,
-                                       const std::string& outcome, const nlohmann::json& report, bool fault,
-                                       double now_s) {
+int StudyStore::record_unspent_attempt(const domain::RolloutReport& report, bool fault, double now_s) {
+  const int study_id = report.id.study_id, trial_id = report.id.trial_id;
   Statement a(db_, R"(INSERT OR IGNORE INTO attempts(study_id, trial_id, attempt, worker_id, outcome, report_json,
                       reported_at) VALUES(?, ?, ?, ?, ?, ?, ?))");
-  a.bind(1, study_id).bind(2, trial_id).bind(3, attempt).bind(4, worker_id).bind(5, outcome).bind(6, report.dump());
+  a.bind(1, study_id).bind(2, trial_id).bind(3, report.id.attempt).bind(4, report.worker_id);
+  a.bind(5, std::string(domain::to_string(report.outcome))).bind(6, domain::to_json(report).dump());
   a.bind(7, now_s).run();
   if (fault && sqlite3_changes(db_) == 1) {
     Statement f(db_, "UPDATE trials SET faults = faults + 1 WHERE study_id = ? AND trial_id = ?");
@@ -308,14 +323,16 @@ void StudyStore::reissue(int study_id, int trial_id, int attempt, const std::str
   s.bind(1, attempt).bind(2, worker_id).bind(3, now_s).bind(4, study_id).bind(5, trial_id).run();
 }
 
-bool StudyStore::complete_trial(int study_id, int trial_id, bool ok, double cost, const nlohmann::json& report,
-                                double now_s) {
+bool StudyStore::complete_trial(const domain::RolloutReport& report, double now_s) {
+  const bool ok = report.ok();
+  const double cost = ok ? report.summary.cost : 0.0;
   // report_seq numbers a study's reports in the order they were counted (and told to its optimizer):
   // the order a restart replays them in, whatever the wall clock did meanwhile.
   Statement s(db_, R"(UPDATE trials SET status = 'done', ok = ?, cost = ?, report_json = ?, reported_at = ?,
                       report_seq = (SELECT COALESCE(MAX(report_seq), 0) + 1 FROM trials WHERE study_id = ?5)
                       WHERE study_id = ?5 AND trial_id = ? AND status = 'in_flight')");
-  s.bind(1, ok ? 1 : 0).bind(2, cost).bind(3, report.dump()).bind(4, now_s).bind(5, study_id).bind(6, trial_id).run();
+  s.bind(1, ok ? 1 : 0).bind(2, cost).bind(3, domain::to_json(report).dump()).bind(4, now_s);
+  s.bind(5, report.id.study_id).bind(6, report.id.trial_id).run();
   return sqlite3_changes(db_) == 1;
 }
 

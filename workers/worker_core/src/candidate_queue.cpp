@@ -6,8 +6,8 @@ namespace cpgmatch::worker {
 
 CandidateQueue::CandidateQueue(std::string worker_id) : worker_id_(std::move(worker_id)) {}
 
-CandidateQueue::IssueKey CandidateQueue::issue_key(const msg::Candidate& c) {
-  return {c.store_id(), c.study_id(), c.trial_id(), c.attempt()};
+CandidateQueue::IssueKey CandidateQueue::issue_key(const domain::Candidate& c) {
+  return {c.id.store_id, c.id.study_id, c.id.trial_id, c.id.attempt};
 }
 
 const char* CandidateQueue::to_string(Offer offer) {
@@ -20,10 +20,10 @@ const char* CandidateQueue::to_string(Offer offer) {
   return "?";
 }
 
-CandidateQueue::Offer CandidateQueue::offer(const msg::Candidate& c) {
+CandidateQueue::Offer CandidateQueue::offer(const domain::Candidate& c) {
   // The worker's reader delivers every candidate on the domain: this is where a worker keeps its own, so
   // it never runs (and the optimizer never rejects a report for) another worker's candidate.
-  if (c.worker_id() != worker_id_) return Offer::kNotOurs;
+  if (c.worker_id != worker_id_) return Offer::kNotOurs;
   std::lock_guard<std::mutex> lock(mutex_);
   if (draining_) return Offer::kDraining;
   // Dropped only while the very same issue is queued or running: a re-issue (a higher attempt, e.g.
@@ -35,17 +35,17 @@ CandidateQueue::Offer CandidateQueue::offer(const msg::Candidate& c) {
   return Offer::kQueued;
 }
 
-std::optional<msg::Candidate> CandidateQueue::take() {
+std::optional<domain::Candidate> CandidateQueue::take() {
   std::unique_lock<std::mutex> lock(mutex_);
   wake_.wait(lock, [&] { return draining_ || !queue_.empty(); });
   if (draining_) return std::nullopt;
-  msg::Candidate c = std::move(queue_.front());
+  domain::Candidate c = std::move(queue_.front());
   queue_.pop_front();
   ++busy_;
   return c;
 }
 
-void CandidateQueue::finish(const msg::Candidate& c) {
+void CandidateQueue::finish(const domain::Candidate& c) {
   std::lock_guard<std::mutex> lock(mutex_);
   in_progress_.erase(issue_key(c));
   if (busy_ > 0) --busy_;

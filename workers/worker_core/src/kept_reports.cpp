@@ -8,8 +8,8 @@ KeptReports::KeptReports(std::size_t limit) : limit_(limit) {
   if (limit_ == 0) throw std::logic_error("KeptReports: the limit must be at least 1");
 }
 
-std::vector<msg::RolloutReport> KeptReports::keep(const msg::RolloutReport& report) {
-  const ReportKey key{report.store_id(), report.study_id(), report.trial_id()};
+std::vector<domain::AttemptId> KeptReports::keep(const domain::AttemptId& report) {
+  const ReportKey key{report.store_id, report.study_id, report.trial_id};
   // A second report for the same key (a re-issued attempt) replaces the first in the writer too: the
   // topic keeps one sample per instance.
   kept_[key] = report;
@@ -21,7 +21,7 @@ std::vector<msg::RolloutReport> KeptReports::keep(const msg::RolloutReport& repo
     }
     order_.swap(live);
   }
-  std::vector<msg::RolloutReport> released;
+  std::vector<domain::AttemptId> released;
   while (kept_.size() > limit_) {
     if (const auto oldest = kept_.find(order_.front()); oldest != kept_.end()) {
       released.push_back(oldest->second);
@@ -32,10 +32,10 @@ std::vector<msg::RolloutReport> KeptReports::keep(const msg::RolloutReport& repo
   return released;
 }
 
-std::optional<msg::RolloutReport> KeptReports::acknowledge(const msg::Candidate& key) {
-  const auto it = kept_.find({key.store_id(), key.study_id(), key.trial_id()});
+std::optional<domain::AttemptId> KeptReports::acknowledge(const domain::AttemptId& key) {
+  const auto it = kept_.find({key.store_id, key.study_id, key.trial_id});
   if (it == kept_.end()) return std::nullopt;
-  msg::RolloutReport report = std::move(it->second);
+  const domain::AttemptId report = it->second;
   kept_.erase(it);
   return report;
 }

@@ -37,7 +37,7 @@ SpecBook::Lookup SpecBook::find(std::uint64_t key, std::chrono::milliseconds wai
     return {nullptr, fmt::format("study spec {}: its content hashes to {}, not to its key", study::spec_key_hex(key),
                                  spec->sha256())};
   }
-  if (spec->objective_version() != objective_version_) {
+  if (static_cast<int>(spec->objective_version()) != objective_version_) {
     return {nullptr, fmt::format("study spec {} says objective version {}; this worker computes version {}",
                                  study::spec_key_hex(key), spec->objective_version(), objective_version_)};
   }

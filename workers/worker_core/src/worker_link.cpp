@@ -26,12 +26,18 @@ WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
       announcements_(participant_),
       candidates_(
           participant_,
-          [this](const msg::Candidate& c) {
-            const CandidateQueue::Offer offer = queue_.offer(c);  // the queue keeps only ours
-            if (offer != CandidateQueue::Offer::kNotOurs) {
-              spdlog::debug("worker {}: candidate study {} trial {} attempt {}: {}", config_.worker_id, c.study_id(),
-                            c.trial_id(), c.attempt(), CandidateQueue::to_string(offer));
+          [this](const msg::Candidate& wire) {
+            // Every candidate on the domain arrives here: look at the worker id before converting anything.
+            if (wire.worker_id() != config_.worker_id) return;
+            domain::Candidate c;
+            try {
+              c = dds::from_wire(wire);
+            } catch (const dds::WireError& e) {
+              return answer_malformed(wire, e.what());
             }
+            const CandidateQueue::Offer offer = queue_.offer(c);
+            spdlog::debug("worker {}: candidate study {} trial {} attempt {}: {}", config_.worker_id, c.id.study_id,
+                          c.id.trial_id, c.id.attempt, CandidateQueue::to_string(offer));
           },
           [this](const msg::Candidate& key, dds::InstanceGone gone) {
             if (gone.disposed) acknowledged(key);  // not on a lost optimizer: its successor needs the reports
@@ -40,8 +46,7 @@ WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
         // Kept as received; whoever uses it checks the hash and the version (SpecBook).
         std::lock_guard<std::mutex> lock(specs_mutex_);
         const bool is_new = specs_.count(sample.spec_key()) == 0;
-        specs_[sample.spec_key()] = ReceivedSpec{sample.spec_key(), sample.objective_version(),
-                                                 sample.sha256().to_string(), sample.spec_json().to_string()};
+        specs_[sample.spec_key()] = dds::from_wire(sample);
         if (is_new) {
           spec_order_.push_back(sample.spec_key());
           if (spec_order_.size() > kMaxSpecs) {
@@ -52,23 +57,55 @@ WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
         spec_arrived_.notify_all();
       }) {
   if (config_.on_emergency_stop) {
-    stops_ = std::make_unique<dds::Reader<msg::EmergencyStop>>(participant_, config_.on_emergency_stop);
+    stops_ = std::make_unique<dds::Reader<msg::EmergencyStop>>(
+        participant_, [this](const msg::EmergencyStop& s) { config_.on_emergency_stop(dds::from_wire(s)); });
   }
 }
 
-bool WorkerLink::publish(const msg::RolloutReport& report) {
+namespace {
+
+// The key fields of a report instance, for unregistering it (the topic is keyed by store, study, trial).
+msg::RolloutReport report_key(const domain::AttemptId& id) {
+  msg::RolloutReport key;
+  key.store_id(id.store_id);
+  key.study_id(static_cast<std::uint32_t>(id.study_id));
+  key.trial_id(static_cast<std::uint32_t>(id.trial_id));
+  return key;
+}
+
+}  // namespace
+
+bool WorkerLink::publish(const domain::RolloutReport& report) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const bool written = reports_.write(report);
-  spdlog::debug("worker {}: report study {} trial {} attempt {} written (ok {}, cost {})", config_.worker_id,
-                report.study_id(), report.trial_id(), report.attempt(), report.ok(), report.cost());
-  if (!written) spdlog::error("study {} trial {}: report write failed", report.study_id(), report.trial_id());
-  for (const auto& old : kept_.keep(report)) reports_.unregister(old);
+  const bool written = reports_.write(dds::to_wire(report));
+  spdlog::debug("worker {}: report study {} trial {} attempt {} written ({}, cost {})", config_.worker_id,
+                report.id.study_id, report.id.trial_id, report.id.attempt, domain::to_string(report.outcome),
+                report.summary.cost);
+  if (!written) spdlog::error("study {} trial {}: report write failed", report.id.study_id, report.id.trial_id);
+  for (const auto& old : kept_.keep(report.id)) reports_.unregister(report_key(old));
   return written;
 }
 
 void WorkerLink::acknowledged(const msg::Candidate& key) {
+  // Ids past INT_MAX were never issued to (or reported by) this worker: nothing kept under them.
+  if (key.study_id() > 0x7fffffffu || key.trial_id() > 0x7fffffffu) return;
+  const domain::AttemptId id{key.store_id(), static_cast<int>(key.study_id()), static_cast<int>(key.trial_id()), 0};
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto report = kept_.acknowledge(key)) reports_.unregister(*report);
+  if (const auto report = kept_.acknowledge(id)) reports_.unregister(report_key(*report));
+}
+
+void WorkerLink::answer_malformed(const msg::Candidate& c, const std::string& why) {
+  spdlog::warn("worker {}: bad candidate for study {} trial {}: {}", config_.worker_id, c.study_id(), c.trial_id(), why);
+  // Answered only when its ids are ones the domain can hold; otherwise no optimizer issued it.
+  if (c.study_id() > 0x7fffffffu || c.trial_id() > 0x7fffffffu || c.attempt() > 0x7fffffffu) return;
+  domain::RolloutReport r;
+  r.id = domain::AttemptId{c.store_id(), static_cast<int>(c.study_id()), static_cast<int>(c.trial_id()),
+                           static_cast<int>(c.attempt())};
+  r.worker_id = config_.worker_id;
+  r.worker_kind = config_.kind;
+  r.outcome = domain::Outcome::kError;
+  r.error = "bad candidate: " + why;
+  publish(r);
 }
 
 void WorkerLink::set_accepting(bool accepting, const std::string& status) {
@@ -92,21 +129,21 @@ void WorkerLink::announce(bool accepting) {
   // DDS thread) must not be undone by that stale value.
   accepting = accepting && accepting_.load();
   const CandidateQueue::Load load = queue_.load();
-  msg::WorkerAnnouncement a;
-  a.worker_key(dds::worker_key(config_.worker_id));
-  a.worker_id(config_.worker_id);
-  a.kind(config_.kind);
-  a.host(config_.host);
-  a.pid(static_cast<std::uint32_t>(getpid()));
-  a.slots(config_.slots);
-  a.heartbeat_period_s(config_.heartbeat_s);
-  a.accepting(accepting);
-  a.status(accepting ? std::string() : status_);
-  a.objective_version(config_.objective_version);
-  a.busy(load.busy);
-  a.completed(load.completed);
-  announcements_.write(a);
-  last_announcement_ = a;
+  domain::WorkerAnnouncement a;
+  a.worker_key = domain::worker_key(config_.worker_id);
+  a.worker_id = config_.worker_id;
+  a.kind = config_.kind;
+  a.host = config_.host;
+  a.pid = static_cast<std::uint32_t>(getpid());
+  a.slots = static_cast<int>(config_.slots);
+  a.heartbeat_period_s = config_.heartbeat_s;
+  a.accepting = accepting;
+  a.status = accepting ? std::string() : status_;
+  a.objective_version = config_.objective_version;
+  a.busy = static_cast<int>(load.busy);
+  a.completed = load.completed;
+  last_announcement_ = dds::to_wire(a);
+  announcements_.write(last_announcement_);
 }
 
 void WorkerLink::heartbeat_until(const std::function<bool()>& stop) {

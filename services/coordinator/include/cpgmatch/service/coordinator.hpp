@@ -1,6 +1,7 @@
-// The optimizer service's logic, free of DDS entities: wire samples come in through handle_*(), and
-// everything to publish goes out through an Outbox. The DDS shell (services/optimizer_service/main.cpp)
-// only moves samples between the two; tests drive a Coordinator directly with a recording Outbox.
+// The optimizer service's logic, free of DDS: domain values (services/domain) come in through handle_*(),
+// and everything to publish goes out through an Outbox, also as domain values. The DDS shell
+// (services/optimizer_service/main.cpp) converts samples with idl/transport's from_wire/to_wire and moves
+// them between the two; tests drive a Coordinator directly with a recording Outbox.
 //
 // Threads: every public member runs on one thread (the event thread), which owns the store and all
 // bookkeeping. Model work (a study's tells with their GP fit, its asks with their acquisition
@@ -23,7 +24,7 @@
 //    No hardware worker on the domain: the study waits and says so in its state's message.
 //  * a report counts only from the worker its attempt was issued to; with DDS-Security on
 //    (CoordinatorOptions::require_authenticated_workers) also only when that worker id belongs to the
-//    sender's certificate (its CN, or CN/suffix: dds::worker_id_belongs_to), and a participant may only
+//    sender's certificate (its CN, or CN/suffix: domain::worker_id_belongs_to), and a participant may only
 //    announce worker ids its certificate owns. The DDS shell hands in the sender's authenticated CN.
 //  * a study owns its objective: its spec (study_spec.hpp) is resolved and stored at submit, published on
 //    cpgmatch/study_specs while the study is open, and named by every candidate; workers run exactly it.
@@ -49,29 +50,35 @@
 
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/service/model_pool.hpp"
-#include "cpgmatch/service/study_status.hpp"
 #include "cpgmatch/service/worker_pool.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/study/study_config.hpp"
 #include "cpgmatch/study/study_spec.hpp"
 #include "cpgmatch/study/study_store.hpp"
-#include "cpgmatch_msgs.h"
+#include "cpgmatch/domain/candidate.hpp"
+#include "cpgmatch/domain/command.hpp"
+#include "cpgmatch/domain/rollout_report.hpp"
+#include "cpgmatch/domain/study_state.hpp"
+#include "cpgmatch/domain/study_status.hpp"
+#include "cpgmatch/domain/worker_announcement.hpp"
 
 namespace cpgmatch::service {
+
+using domain::StudyStatus;
 
 class Outbox {
  public:
   virtual ~Outbox() = default;
-  virtual void send_candidate(const msg::Candidate& c) = 0;
-  virtual void retire_candidate(const msg::Candidate& c) = 0;  // report received: drop it from the topic
-  virtual void publish_trial(const msg::TrialRecord& t) = 0;
-  // A finished study's record leaves the topic (its key is set; the store keeps the record).
-  virtual void retire_trial(const msg::TrialRecord& t) = 0;
-  virtual void publish_state(const msg::StudyState& s) = 0;
-  virtual void reply(const msg::CommandReply& r) = 0;
+  virtual void send_candidate(const domain::Candidate& c) = 0;
+  virtual void retire_candidate(const domain::Candidate& c) = 0;  // report received: drop it from the topic
+  virtual void publish_trial(const domain::TrialRecord& t) = 0;
+  // A finished study's record leaves the topic (its study and trial id are set; the store keeps the record).
+  virtual void retire_trial(const domain::TrialRecord& t) = 0;
+  virtual void publish_state(const domain::StudyState& s) = 0;
+  virtual void reply(const domain::CommandReply& r) = 0;
   // An open study's spec on cpgmatch/study_specs, and its leaving once no open study uses it.
-  virtual void publish_spec(const msg::StudySpecSample&) {}
-  virtual void retire_spec(const msg::StudySpecSample&) {}
+  virtual void publish_spec(const domain::SpecPublication&) {}
+  virtual void retire_spec(const domain::SpecPublication&) {}
 };
 
 // Holds what the coordinator publishes while a store batch (study::StudyStore::Batch) is open, and
@@ -88,14 +95,14 @@ class DeferredOutbox final : public Outbox {
   void discard();
   std::size_t held() const { return held_.size(); }
 
-  void send_candidate(const msg::Candidate& c) override { pass([c](Outbox& o) { o.send_candidate(c); }); }
-  void retire_candidate(const msg::Candidate& c) override { pass([c](Outbox& o) { o.retire_candidate(c); }); }
-  void publish_trial(const msg::TrialRecord& t) override { pass([t](Outbox& o) { o.publish_trial(t); }); }
-  void retire_trial(const msg::TrialRecord& t) override { pass([t](Outbox& o) { o.retire_trial(t); }); }
-  void publish_state(const msg::StudyState& s) override { pass([s](Outbox& o) { o.publish_state(s); }); }
-  void reply(const msg::CommandReply& r) override { pass([r](Outbox& o) { o.reply(r); }); }
-  void publish_spec(const msg::StudySpecSample& s) override { pass([s](Outbox& o) { o.publish_spec(s); }); }
-  void retire_spec(const msg::StudySpecSample& s) override { pass([s](Outbox& o) { o.retire_spec(s); }); }
+  void send_candidate(const domain::Candidate& c) override { pass([c](Outbox& o) { o.send_candidate(c); }); }
+  void retire_candidate(const domain::Candidate& c) override { pass([c](Outbox& o) { o.retire_candidate(c); }); }
+  void publish_trial(const domain::TrialRecord& t) override { pass([t](Outbox& o) { o.publish_trial(t); }); }
+  void retire_trial(const domain::TrialRecord& t) override { pass([t](Outbox& o) { o.retire_trial(t); }); }
+  void publish_state(const domain::StudyState& s) override { pass([s](Outbox& o) { o.publish_state(s); }); }
+  void reply(const domain::CommandReply& r) override { pass([r](Outbox& o) { o.reply(r); }); }
+  void publish_spec(const domain::SpecPublication& s) override { pass([s](Outbox& o) { o.publish_spec(s); }); }
+  void retire_spec(const domain::SpecPublication& s) override { pass([s](Outbox& o) { o.retire_spec(s); }); }
 
  private:
   void pass(std::function<void(Outbox&)> send) {
@@ -147,7 +154,7 @@ struct CoordinatorOptions {
   // Called on the model thread at the start of every model job (tests hold a job with it).
   std::function<void(int study_id)> model_job_hook;
   // DDS-Security is on: a report or announcement counts only with the sender's authenticated identity
-  // (the CN of its certificate) and a worker_id that identity owns (dds::worker_id_belongs_to). Without
+  // (the CN of its certificate) and a worker_id that identity owns (domain::worker_id_belongs_to). Without
   // security there is no identity to check and worker ids are taken as written.
   bool require_authenticated_workers = false;
 };
@@ -163,12 +170,12 @@ class Coordinator {
   // re-issue, trial records and states published again.
   void resume_from_store(double now_s);
 
-  void handle_command(const msg::StudyCommand& command, double now_s);
+  void handle_command(const domain::StudyCommand& command, double now_s);
   // `sender_identity`: the CN of the sending participant's certificate as DDS-Security authenticated it
   // (std::nullopt: unknown, or no security). Only looked at with require_authenticated_workers.
-  void handle_report(const msg::RolloutReport& report, double now_s,
+  void handle_report(const domain::RolloutReport& report, double now_s,
                      const std::optional<std::string>& sender_identity = std::nullopt);
-  void handle_worker(const msg::WorkerAnnouncement& announcement, double now_s,
+  void handle_worker(const domain::WorkerAnnouncement& announcement, double now_s,
                      const std::optional<std::string>& sender_identity = std::nullopt);
   // `disposed_by`: for a dispose with DDS-Security, the disposing participant's CN ("" unknown); it must own
   // the worker id, or the dispose is refused (another identity cannot drop a worker). Nothing: no check
@@ -184,6 +191,10 @@ class Coordinator {
   // For tests and an orderly shutdown.
   void wait_for_models() const { models_.wait_until_finished(); }
   int model_jobs_outstanding() const { return models_.outstanding(); }
+
+  // A sample the transport could not turn into a domain value (dds::WireError): logged and counted with the
+  // coordinator's own rejections.
+  void reject_sample(const std::string& what, const std::string& why) { reject(what, why); }
 
   // Numbers for logs and tests.
   int live_workers() const { return pool_.size(); }
@@ -259,7 +270,7 @@ class Coordinator {
   // With require_authenticated_workers: why `sender_identity` may not speak for `worker_id`, or nothing.
   std::optional<std::string> identity_refusal(const std::string& worker_id,
                                               const std::optional<std::string>& sender_identity) const;
-  void submit(const msg::StudyCommand& command, double now_s, msg::CommandReply& reply);
+  void submit(const domain::StudyCommand& command, double now_s, domain::CommandReply& reply);
   Study* find_study(int study_id);
   void open_study(Study&& study, const study::StoredStudy* stored, double now_s);
   void drop_worker(const std::string& worker_id, const std::string& why, double now_s);
@@ -286,9 +297,9 @@ class Coordinator {
   // Stores the validation sets once the exploration is complete and told; true when it did.
   bool start_validation_if_due(Study& study);
   // A counted validation report: counters only (the optimizer never hears of it).
-  void account_validation(Study& study, int trial_id, const msg::RolloutReport& report);
+  void account_validation(Study& study, int trial_id, const domain::RolloutReport& report);
   // Failures, falls and the failure streak of one report, either phase; false when it did not run.
-  bool count_outcome(Study& study, const msg::RolloutReport& report);
+  bool count_outcome(Study& study, const domain::RolloutReport& report);
   // Says in the study's message whether its work waits, and for what (no hardware worker, a robot under an
   // emergency stop, workers that refused its spec).
   void note_hardware_wait(Study& study, double now_s);
@@ -296,13 +307,13 @@ class Coordinator {
   static bool may_serve(const Study& study, const PoolWorker& worker, double now_s);
   // A report that did not measure its trial (refused, plant_fault, diverged): re-issue it, or spend it as an
   // excluded failure once its faults reach the bound.
-  void handle_unspent(Study& study, int trial_id, const msg::RolloutReport& report, double now_s);
+  void handle_unspent(Study& study, int trial_id, const domain::RolloutReport& report, double now_s);
   // Fails a running study whose last max_consecutive_failures reports were all failures.
-  void fail_on_failure_streak(Study& study, const msg::RolloutReport& last);
+  void fail_on_failure_streak(Study& study, const domain::RolloutReport& last);
   // A hardware worker may run the study only if it is the study's robot (StudyConfig::robot), when it names one.
   static bool is_study_robot(const Study& study, const PoolWorker& worker);
   // The study's spec as a DDS sample.
-  static msg::StudySpecSample spec_sample(const Study& study);
+  static domain::SpecPublication spec_sample(const Study& study);
   // Resolves a study's spec (the service's defaults when options_.spec_defaults names none).
   study::SpecDefaults spec_defaults() const;
   // Running studies, rotated by one each tick so that no study is always served first.
@@ -320,21 +331,21 @@ class Coordinator {
   static void release_optimizer_if_done(Study& study);
   void issue(Study& study, int trial_id, PoolWorker& worker, double now_s, bool reissue);
   // A new report: queued for the study's next model job (which tells it and saves the model state), then accounted.
-  void count_report(Study& study, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& report);
+  void count_report(Study& study, int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& report);
   // Counters and best of a report the optimizer already holds (a restart's replay).
-  void account_report(Study& study, int trial_id, const Eigen::VectorXd& x, const msg::RolloutReport& report);
+  void account_report(Study& study, int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& report);
   // The study's optimizer from its stored observations: restored from the saved model state (one
   // factorisation), or replayed observation by observation when there is none.
   bo::BayesianOptimizer restored_optimizer(const Study& study, const study::StoredStudy* stored,
                                            const std::vector<bo::Observation>& observations) const;
   void finish_if_complete(Study& study);
-  msg::Candidate make_candidate(const Study& study, int trial_id, const InFlight& f) const;
-  msg::TrialRecord make_trial_record(const Study& study, int trial_id, const Eigen::VectorXd& x,
-                                     const msg::RolloutReport& report) const;
+  domain::Candidate make_candidate(const Study& study, int trial_id, const InFlight& f) const;
+  domain::TrialRecord make_trial_record(const Study& study, int trial_id, const Eigen::VectorXd& x,
+                                        const domain::RolloutReport& report) const;
   void publish_state(Study& study, double now_s);
   // A finished study, its grace period over: trial records off the topic, model dropped.
   void retire_finished(Study& study, double now_s);
-  static bool is_open(const Study& s) { return service::is_open(s.state); }
+  static bool is_open(const Study& s) { return domain::is_open(s.state); }
 
   study::StudyStore& store_;
   Outbox& out_;
@@ -346,7 +357,7 @@ class Coordinator {
   std::map<int, double> last_state_publish_;
   // Replies by (client_id, correlation_id): a client re-sends a command whose reply it did not get, and
   // gets the same reply again instead of a second execution (a second study, say). Last kMaxReplies.
-  std::map<std::pair<std::string, std::uint64_t>, msg::CommandReply> replies_;
+  std::map<std::pair<std::string, std::uint64_t>, domain::CommandReply> replies_;
   std::deque<std::pair<std::string, std::uint64_t>> reply_order_;
   int round_robin_ = 0;
   int issues_left_this_tick_ = 0;  // max_issues_per_tick, counted down by every candidate a tick writes

@@ -17,6 +17,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/domain/rollout_report.hpp"
+
 struct sqlite3;
 
 namespace cpgmatch::study {
@@ -44,7 +46,9 @@ struct StoredTrial {
   int report_seq = 0;              // done: 1, 2, ... in the order reports were counted (0: an older store)
   bool ok = false;                 // done: the rollout ran (a fall is ok)
   double cost = 0.0;
-  nlohmann::json report;           // done: the full report
+  // done: the full report, in the store's schema of a domain::RolloutReport (domain/report_json.hpp); kept
+  // as the stored tree so that readers of older stores see what was written. stored_report() types it.
+  nlohmann::json report;
   // "exploration" (told to the optimizer) or "validation" (a hardware set around the answer, never told).
   // Stores older than the column read as exploration, which is all they held.
   std::string phase = "exploration";
@@ -95,20 +99,20 @@ class StudyStore {
                    double now_s, const StoredSpec& spec = {});
   // Gives a study its spec (a study stored before specs, migrated on first open).
   void set_spec(int study_id, const StoredSpec& spec);
-  // Records an attempt that did not measure its trial (the trial stays in flight, to be issued again);
-  // `fault`: it counts against the trial's retry bound. Returns the trial's fault count afterwards. A
-  // repeated (study, trial, attempt, worker) is recorded once.
-  int record_unspent_attempt(int study_id, int trial_id, int attempt, const std::string& worker_id,
-                             const std::string& outcome, const nlohmann::json& report, bool fault, double now_s);
+  // Records an attempt that did not measure its trial (the trial stays in flight, to be issued again): the
+  // report's study, trial, attempt, worker and outcome. `fault`: it counts against the trial's retry bound.
+  // Returns the trial's fault count afterwards. A repeated (study, trial, attempt, worker) is recorded once.
+  int record_unspent_attempt(const domain::RolloutReport& report, bool fault, double now_s);
   std::vector<StoredAttempt> unspent_attempts(int study_id) const;
   void set_state(int study_id, const std::string& state, const std::string& message);
   // Inserts new in-flight trials in one transaction.
   void add_trials(int study_id, const std::vector<StoredTrial>& trials);
   // Records a new issue of an in-flight trial (after its worker was lost or its lease ran out).
   void reissue(int study_id, int trial_id, int attempt, const std::string& worker_id, double now_s);
-  // Marks an in-flight trial done with its report. False (and no change) when it was already done:
-  // that is how a late duplicate report is never counted twice.
-  bool complete_trial(int study_id, int trial_id, bool ok, double cost, const nlohmann::json& report, double now_s);
+  // Marks an in-flight trial done with its report (the report's study and trial; ok and cost from it, cost 0
+  // when it did not measure). False (and no change) when it was already done: that is how a late duplicate
+  // report is never counted twice.
+  bool complete_trial(const domain::RolloutReport& report, double now_s);
 
   // Replaces the study's saved optimizer state (see bo::ModelState): what a restart needs besides the
   // observations to resume exactly, without refitting the model once per stored result.
@@ -156,5 +160,9 @@ class StudyStore {
 };
 
 std::string to_string(TrialStatus s);
+
+// A stored trial's report as a domain type; nothing when the trial is not done or its report is unreadable
+// (`why`, when given, says what was wrong).
+std::optional<domain::RolloutReport> stored_report(const StoredTrial& trial, std::string* why = nullptr);
 
 }  // namespace cpgmatch::study

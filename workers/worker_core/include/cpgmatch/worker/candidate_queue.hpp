@@ -21,7 +21,7 @@
 #include <string>
 #include <tuple>
 
-#include "cpgmatch_msgs.h"
+#include "cpgmatch/domain/candidate.hpp"
 
 namespace cpgmatch::worker {
 
@@ -35,16 +35,16 @@ class CandidateQueue {
     kDuplicate,  // the very same issue is queued or running: DDS delivered it twice
     kDraining,   // shutting down: the optimizer re-issues it once this worker has left the domain
   };
-  Offer offer(const msg::Candidate& c);
+  Offer offer(const domain::Candidate& c);
   static const char* to_string(Offer offer);  // "queued", "not ours", "duplicate", "draining" (for logs)
 
   // The oldest queued candidate, now counted as running; blocks until there is one. nullopt once
   // drain() was called: the caller's loop ends.
-  std::optional<msg::Candidate> take();
+  std::optional<domain::Candidate> take();
 
   // Its report has been written: the issue is no longer running (a later delivery of the same issue is
   // accepted again) and counts as completed.
-  void finish(const msg::Candidate& c);
+  void finish(const domain::Candidate& c);
 
   // Stops accepting, drops the queued candidates and wakes every take(). Returns how many were dropped
   // (handed back: the optimizer re-issues them). Running candidates still finish.
@@ -60,13 +60,13 @@ class CandidateQueue {
  private:
   // What identifies one issue of a trial: store, study, trial, attempt. A re-issue (higher attempt) or
   // a fresh store reusing old ids is new work; the same issue delivered twice is not.
-  using IssueKey = std::tuple<std::uint64_t, std::uint32_t, std::uint32_t, std::uint32_t>;
-  static IssueKey issue_key(const msg::Candidate& c);
+  using IssueKey = std::tuple<std::uint64_t, int, int, int>;
+  static IssueKey issue_key(const domain::Candidate& c);
 
   const std::string worker_id_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::deque<msg::Candidate> queue_;
+  std::deque<domain::Candidate> queue_;
   std::set<IssueKey> in_progress_;  // queued or running: bounded by the queue and the slots
   std::uint32_t busy_ = 0;
   std::uint64_t completed_ = 0;

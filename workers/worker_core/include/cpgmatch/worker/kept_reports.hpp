@@ -5,8 +5,8 @@
 // instance in the optimizer's reader. An optimizer that never acknowledges (lost, or an old one) would
 // make the writer grow for ever, so beyond `limit` the oldest are unregistered anyway.
 //
-// No DDS entities here: the methods return the reports to unregister and the DDS shell
-// (worker_link.hpp) does it. Not thread-safe: the shell calls it under the lock it writes reports with.
+// No DDS entities here: the methods return which reports to unregister (their attempt ids: the topic's key
+// is store, study and trial) and the DDS shell (worker_link.hpp) does it. Not thread-safe: the shell calls it under the lock it writes reports with.
 #pragma once
 
 #include <cstddef>
@@ -17,7 +17,7 @@
 #include <tuple>
 #include <vector>
 
-#include "cpgmatch_msgs.h"
+#include "cpgmatch/domain/rollout_report.hpp"
 
 namespace cpgmatch::worker {
 
@@ -29,18 +29,18 @@ class KeptReports {
 
   // A report was written. Returns those to unregister now: the oldest unacknowledged ones beyond the
   // limit (at most one per call once the limit is reached).
-  std::vector<msg::RolloutReport> keep(const msg::RolloutReport& report);
+  std::vector<domain::AttemptId> keep(const domain::AttemptId& report);
 
   // The candidate with `key`'s key fields (store, study, trial) was disposed: its report, if still
   // kept, to unregister.
-  std::optional<msg::RolloutReport> acknowledge(const msg::Candidate& key);
+  std::optional<domain::AttemptId> acknowledge(const domain::AttemptId& key);
 
   std::size_t size() const { return kept_.size(); }
 
  private:
-  using ReportKey = std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>;  // the topic's key
+  using ReportKey = std::tuple<std::uint64_t, int, int>;  // the topic's key: store, study, trial
   std::size_t limit_;
-  std::map<ReportKey, msg::RolloutReport> kept_;  // written, not yet acknowledged
+  std::map<ReportKey, domain::AttemptId> kept_;   // written, not yet acknowledged
   std::deque<ReportKey> order_;                   // in writing order; may name acknowledged ones
 };
 

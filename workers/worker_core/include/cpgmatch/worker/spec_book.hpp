@@ -18,7 +18,7 @@ class SpecBook {
  public:
   // `objective_version`: what this worker computes (study::kObjectiveVersion; tests pass another to play
   // an older or newer release).
-  SpecBook(WorkerLink& link, std::uint32_t objective_version) : link_(link), objective_version_(objective_version) {}
+  SpecBook(WorkerLink& link, int objective_version) : link_(link), objective_version_(objective_version) {}
 
   struct Lookup {
     std::shared_ptr<const study::StudySpec> spec;  // null: refuse, for `refusal`
@@ -28,11 +28,11 @@ class SpecBook {
   // version, one whose content does not match its hash, and one that does not parse.
   Lookup find(std::uint64_t key, std::chrono::milliseconds wait = std::chrono::seconds(5));
 
-  std::uint32_t objective_version() const { return objective_version_; }
+  int objective_version() const { return objective_version_; }
 
  private:
   WorkerLink& link_;
-  std::uint32_t objective_version_;
+  int objective_version_;
   std::mutex mutex_;
   std::map<std::uint64_t, std::shared_ptr<const study::StudySpec>> parsed_;
 };

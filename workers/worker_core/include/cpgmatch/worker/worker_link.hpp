@@ -22,6 +22,8 @@
 #include <string>
 
 #include "cpgmatch/dds/participant.hpp"
+#include "cpgmatch/domain/command.hpp"
+#include "cpgmatch/domain/study_state.hpp"
 #include "cpgmatch/worker/candidate_queue.hpp"
 #include "cpgmatch/worker/kept_reports.hpp"
 
@@ -32,24 +34,19 @@ struct WorkerLinkConfig {
   std::string worker_id;         // unique on the domain; the candidates addressed to it are kept
   std::string participant_name;  // what other participants see (logs, peer discovery)
   bool localhost_only = false;
-  msg::WorkerKind kind = msg::WORKER_SIM;
+  domain::WorkerKind kind = domain::WorkerKind::kSimulation;
   std::uint32_t slots = 1;       // announced capacity
   double heartbeat_s = 0.5;
   std::string host;              // announced host name
   // Robot agents only: emergency-stop commands (cpgmatch/estop), called on a DDS thread. Unset: no
   // reader, so a simulation worker never subscribes.
-  std::function<void(const msg::EmergencyStop&)> on_emergency_stop;
+  std::function<void(const domain::EmergencyStop&)> on_emergency_stop;
   // The objective version this worker computes (study::kObjectiveVersion), announced with every heartbeat.
-  std::uint32_t objective_version = 0;
+  int objective_version = 0;
 };
 
-// A study spec as received on cpgmatch/study_specs (study_spec.hpp says what is in it).
-struct ReceivedSpec {
-  std::uint64_t key = 0;
-  std::uint32_t objective_version = 0;
-  std::string sha256;
-  std::string json;
-};
+// A study spec as received on cpgmatch/study_specs (study_spec.hpp says what is in it), not yet checked.
+using ReceivedSpec = domain::SpecPublication;
 
 class WorkerLink {
  public:
@@ -59,7 +56,7 @@ class WorkerLink {
   WorkerLink& operator=(const WorkerLink&) = delete;
 
   // Writes a report and keeps it until the optimizer disposes its candidate. False: the write failed.
-  bool publish(const msg::RolloutReport& report);
+  bool publish(const domain::RolloutReport& report);
 
   // One announcement: id, kind, capacity, and the queue's load.
   void announce(bool accepting);
@@ -83,6 +80,9 @@ class WorkerLink {
 
  private:
   void acknowledged(const msg::Candidate& key);
+  // A candidate addressed to this worker that the domain cannot hold (a parameter named twice): answered
+  // with an error report, so the optimizer learns at once instead of at the lease's end.
+  void answer_malformed(const msg::Candidate& c, const std::string& why);
 
   WorkerLinkConfig config_;
   CandidateQueue& queue_;

@@ -1,11 +1,11 @@
-// Where a study is in its life, as the coordinator keeps it: one of five states, not a string. The store
-// keeps the names (to_string); a name it does not know is refused when a study is reopened.
+// Where a study is in its life: one of five states, not a string. The store keeps the names (to_string); a
+// name it does not know is refused when a study is reopened.
 #pragma once
 
 #include <optional>
 #include <string>
 
-namespace cpgmatch::service {
+namespace cpgmatch::domain {
 
 enum class StudyStatus { kRunning, kPaused, kDone, kFailed, kStopped };
 
@@ -31,4 +31,4 @@ inline std::optional<StudyStatus> study_status_from_string(const std::string& na
 // Open: it may still issue work or take reports (running or paused).
 inline bool is_open(StudyStatus s) { return s == StudyStatus::kRunning || s == StudyStatus::kPaused; }
 
-}  // namespace cpgmatch::service
+}  // namespace cpgmatch::domain

@@ -1,0 +1,38 @@
+// Commands to the optimizer service and its replies. A client re-sends a command whose reply it did not get;
+// (client_id, correlation_id) ties the reply to the command and makes a re-sent command answered, not re-run.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace cpgmatch::domain {
+
+enum class CommandKind { kSubmit, kPause, kResume, kStop };
+
+struct StudyCommand {
+  std::uint64_t correlation_id = 0;
+  std::string client_id;
+  CommandKind kind = CommandKind::kSubmit;
+  int study_id = 0;         // pause / resume / stop
+  std::string study_yaml;   // submit: the study file's text
+  std::string source_name;  // submit: the file's name, for error messages
+};
+
+struct CommandReply {
+  std::uint64_t correlation_id = 0;
+  std::string client_id;
+  bool ok = false;
+  int study_id = 0;
+  std::string message;
+};
+
+// An operator stops robot agents (cpgmatch estop): the agent latches a stop until a release arrives.
+struct EmergencyStop {
+  std::uint64_t stop_id = 0;  // random per command: ties the agent's log lines to the command
+  std::string target;         // a worker id, or "*" for every agent on the domain
+  bool release = false;       // false: stop and latch; true: release the latch
+  std::string reason;         // why, in the operator's words
+  std::string sender;         // host:pid of the command, for the agent's log
+};
+
+}  // namespace cpgmatch::domain

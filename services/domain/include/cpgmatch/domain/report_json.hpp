@@ -1,0 +1,23 @@
+// JSON of the domain types: the study store's schema of a report (the `report` column of a trial and of an
+// unspent attempt), and what the command line prints with --json. Field names are part of the store's format:
+// stores written by earlier releases read back through report_from_json (fields they lack get their defaults).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include "cpgmatch/domain/rollout_report.hpp"
+#include "cpgmatch/domain/study_state.hpp"
+#include "cpgmatch/domain/worker_announcement.hpp"
+
+namespace cpgmatch::domain {
+
+nlohmann::json to_json(const RolloutReport& report);
+// Throws nlohmann::json::exception when a field is missing or has the wrong type, std::runtime_error for an
+// outcome this release does not know.
+RolloutReport report_from_json(const nlohmann::json& j);
+
+nlohmann::json to_json(const StudyState& state);
+nlohmann::json to_json(const WorkerAnnouncement& worker);
+nlohmann::json to_json(const TrialRecord& trial);
+
+}  // namespace cpgmatch::domain

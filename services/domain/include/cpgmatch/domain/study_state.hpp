@@ -1,0 +1,62 @@
+// What the optimizer publishes about a study: its state, each evaluated trial, and its spec.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include "cpgmatch/domain/rollout_report.hpp"
+#include "cpgmatch/domain/study_status.hpp"
+
+namespace cpgmatch::domain {
+
+// The study's answer: the counted trial with the lowest GP posterior mean (the lowest cost before the model is
+// fitted). With noisy rollouts the best single cost is biased low; this is what to run.
+struct Recommendation {
+  int trial = 0;
+  double predicted_cost = std::nan("");
+  std::map<std::string, double> params;
+};
+
+struct StudyState {
+  int study_id = 0;
+  std::string name;
+  StudyStatus status = StudyStatus::kRunning;
+  int budget = 0;       // exploration budget + validation sets
+  int completed = 0;    // reports counted (either phase)
+  int in_flight = 0;
+  int failed = 0;       // evaluations that could not run (counted in completed)
+  int falls = 0;
+  int reissued = 0;     // candidates issued again after a lost worker, a lease, a refusal or a fault
+  int workers = 0;      // live workers serving the optimizer
+  double best_cost = std::nan("");  // NaN before the first measured result
+  int best_trial = 0;
+  std::map<std::string, double> best_params;
+  double best_normalized_torque = std::nan("");
+  double best_speed_mps = std::nan("");
+  double elapsed_s = 0.0;       // since the study was created (wall time, survives restarts)
+  double rollouts_per_s = 0.0;  // since this service started serving it
+  std::string message;
+  bool has_recommendation = false;
+  Recommendation recommendation;
+};
+
+// Every evaluated trial with its result.
+struct TrialRecord {
+  int study_id = 0;
+  int trial_id = 0;
+  bool initial = false;  // from the random initial design
+  std::map<std::string, double> parameters;  // the searched parameters, SI units
+  RolloutReport report;
+};
+
+// An open study's resolved spec as published for workers (study_spec.hpp): the canonical JSON and its hash.
+struct SpecPublication {
+  std::uint64_t key = 0;  // the first 64 bits of sha256
+  int objective_version = 0;
+  std::string sha256;     // hex SHA-256 of json
+  std::string json;
+};
+
+}  // namespace cpgmatch::domain

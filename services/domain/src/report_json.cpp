@@ -1,0 +1,147 @@
+#include "cpgmatch/domain/report_json.hpp"
+
+#include <stdexcept>
+
+namespace cpgmatch::domain {
+
+namespace {
+
+// JSON has no NaN: a missing value (no best cost yet, a report that did not measure) is null.
+nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+double number_of(const nlohmann::json& v) { return v.is_null() ? std::nan("") : v.get<double>(); }
+
+nlohmann::json params_json(const std::map<std::string, double>& named) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [name, value] : named) j[name] = value;
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json to_json(const RolloutReport& r) {
+  const RolloutSummary& s = r.summary;
+  nlohmann::json j = {{"study_id", r.id.study_id},
+                      {"trial_id", r.id.trial_id},
+                      {"attempt", r.id.attempt},
+                      {"worker_id", r.worker_id},
+                      {"worker_kind", to_string(r.worker_kind)},
+                      {"ok", r.ok()},
+                      {"outcome", to_string(r.outcome)},
+                      {"error", r.error},
+                      {"cost", number(s.cost)},
+                      {"terms",
+                       {{"feedback", number(s.terms.feedback)},
+                        {"distance", number(s.terms.distance)},
+                        {"pitch", number(s.terms.pitch)},
+                        {"contact", number(s.terms.contact)},
+                        {"periodicity", number(s.terms.periodicity)}}},
+                      {"normalized_torque", number(s.normalized_torque)},
+                      {"summed_torque_nm", number(s.summed_torque_nm)},
+                      {"feedback_fraction",
+                       {{"late_touchdown", number(s.feedback.late_touchdown)},
+                        {"early_touchdown", number(s.feedback.early_touchdown)},
+                        {"early_toeoff", number(s.feedback.early_toeoff)},
+                        {"late_toeoff", number(s.feedback.late_toeoff)}}},
+                      {"fell", r.fell()},
+                      {"fall_time_s", number(s.fall_time_s)},
+                      {"distance_m", number(s.distance_m)},
+                      {"mean_speed_mps", number(s.mean_speed_mps)},
+                      {"wall_time_s", number(r.wall_time_s)}};
+  // Only hardware reports time a control loop; simulation reports keep their shape.
+  if (r.worker_kind == WorkerKind::kHardware) {
+    j["loop"] = {{"jitter_p50_us", number(r.loop.jitter_p50_us)},
+                 {"jitter_p99_us", number(r.loop.jitter_p99_us)},
+                 {"jitter_max_us", number(r.loop.jitter_max_us)},
+                 {"overruns", r.loop.overruns}};
+  }
+  return j;
+}
+
+RolloutReport report_from_json(const nlohmann::json& j) {
+  RolloutReport r;
+  r.id.study_id = j.at("study_id").get<int>();
+  r.id.trial_id = j.at("trial_id").get<int>();
+  r.id.attempt = j.at("attempt").get<int>();
+  r.worker_id = j.at("worker_id").get<std::string>();
+  r.worker_kind = j.at("worker_kind").get<std::string>() == "hardware" ? WorkerKind::kHardware : WorkerKind::kSimulation;
+  r.error = j.at("error").get<std::string>();
+  const bool ok = j.at("ok").get<bool>();
+  if (j.contains("outcome")) {
+    const auto outcome = outcome_from_string(j.at("outcome").get<std::string>());
+    if (!outcome) throw std::runtime_error("unknown outcome " + j.at("outcome").dump());
+    r.outcome = *outcome;
+  } else {
+    // Stores from before outcomes: a report that ran completed or fell, one that did not was an error.
+    r.outcome = !ok ? Outcome::kError : j.at("fell").get<bool>() ? Outcome::kFell : Outcome::kCompleted;
+  }
+  RolloutSummary& s = r.summary;
+  s.cost = number_of(j.at("cost"));
+  const auto& t = j.at("terms");
+  s.terms.feedback = number_of(t.at("feedback"));
+  s.terms.distance = number_of(t.at("distance"));
+  s.terms.pitch = number_of(t.at("pitch"));
+  s.terms.contact = number_of(t.at("contact"));
+  s.terms.periodicity = number_of(t.at("periodicity"));
+  s.normalized_torque = number_of(j.at("normalized_torque"));
+  s.summed_torque_nm = j.contains("summed_torque_nm") ? number_of(j.at("summed_torque_nm")) : std::nan("");
+  const auto& f = j.at("feedback_fraction");
+  s.feedback.late_touchdown = number_of(f.at("late_touchdown"));
+  s.feedback.early_touchdown = number_of(f.at("early_touchdown"));
+  s.feedback.early_toeoff = number_of(f.at("early_toeoff"));
+  s.feedback.late_toeoff = number_of(f.at("late_toeoff"));
+  s.fall_time_s = number_of(j.at("fall_time_s"));
+  s.distance_m = number_of(j.at("distance_m"));
+  s.mean_speed_mps = number_of(j.at("mean_speed_mps"));
+  r.wall_time_s = number_of(j.at("wall_time_s"));
+  if (j.contains("loop")) {
+    const auto& l = j.at("loop");
+    r.loop.jitter_p50_us = number_of(l.at("jitter_p50_us"));
+    r.loop.jitter_p99_us = number_of(l.at("jitter_p99_us"));
+    r.loop.jitter_max_us = number_of(l.at("jitter_max_us"));
+    r.loop.overruns = l.at("overruns").get<int>();
+  }
+  return r;
+}
+
+nlohmann::json to_json(const StudyState& s) {
+  const bool has_best = std::isfinite(s.best_cost);
+  const nlohmann::json none(nullptr);
+  return {{"study_id", s.study_id},
+          {"name", s.name},
+          {"state", to_string(s.status)},
+          {"budget", s.budget},
+          {"completed", s.completed},
+          {"in_flight", s.in_flight},
+          {"failed", s.failed},
+          {"falls", s.falls},
+          {"reissued", s.reissued},
+          {"workers", s.workers},
+          {"best_cost", number(s.best_cost)},
+          {"best_trial", has_best ? nlohmann::json(s.best_trial) : none},
+          {"best_params", has_best ? params_json(s.best_params) : none},
+          {"recommended_trial", s.has_recommendation ? nlohmann::json(s.recommendation.trial) : none},
+          {"recommended_predicted_cost", s.has_recommendation ? number(s.recommendation.predicted_cost) : none},
+          {"recommended_params", s.has_recommendation ? params_json(s.recommendation.params) : none},
+          {"best_normalized_torque", number(s.best_normalized_torque)},
+          {"best_speed_mps", number(s.best_speed_mps)},
+          {"elapsed_s", number(s.elapsed_s)},
+          {"rollouts_per_s", number(s.rollouts_per_s)},
+          {"message", s.message}};
+}
+
+nlohmann::json to_json(const WorkerAnnouncement& w) {
+  return {{"worker_id", w.worker_id},     {"kind", to_string(w.kind)},   {"host", w.host},
+          {"pid", w.pid},                 {"slots", w.slots},            {"busy", w.busy},
+          {"completed", w.completed},     {"accepting", w.accepting},    {"status", w.status},
+          {"objective_version", w.objective_version}};
+}
+
+nlohmann::json to_json(const TrialRecord& t) {
+  return {{"study_id", t.study_id},
+          {"trial_id", t.trial_id},
+          {"initial", t.initial},
+          {"params", params_json(t.parameters)},
+          {"report", to_json(t.report)}};
+}
+
+}  // namespace cpgmatch::domain
