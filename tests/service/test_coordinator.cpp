@@ -273,7 +273,7 @@ TEST_F(CoordinatorTest, APausedLockstepStudyStartsNoModelJobsAndGoesOnWhenResume
   pause.kind = domain::CommandKind::kResume;
   pause.correlation_id = ++correlation_;
   coordinator_->handle_command(pause, now_);
-  for (int round = 0; round < 40 && out_.states.back().completed < 10u; ++round) {
+  for (int round = 0; round < 40 && out_.states.back().completed < 10; ++round) {
     answer_all();
     settle(now_ += 0.1);
   }

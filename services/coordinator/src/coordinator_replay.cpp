@@ -1,0 +1,220 @@
+// The Coordinator's restart half: reopening every study from the store (spec, observations, the saved model
+// state, trials in flight) exactly as the uninterrupted service had it. Kept apart from the live event
+// handling in coordinator.cpp; both are members of one class because a submitted study opens the same way.
+#include <algorithm>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/bo/model_state_json.hpp"
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/service/coordinator.hpp"
+
+namespace cpgmatch::service {
+
+namespace {
+
+// How many observations the study's saved model state was fitted on; nothing without a usable state
+// (restored_optimizer() then says why and replays every report).
+std::optional<int> saved_state_observations(const study::StoredStudy* stored) {
+  if (stored == nullptr || !stored->model_state.is_object()) return std::nullopt;
+  try {
+    const int n = bo::model_state_from_json(stored->model_state).observations;
+    return n >= 0 ? std::optional<int>(n) : std::nullopt;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+// What the optimizer was told for a stored trial: its cost, or a failure; and whether it fell.
+bo::Observation stored_observation(const study::StoredTrial& t) {
+  const std::optional<domain::RolloutReport> report = study::stored_report(t);
+  const bool fell = t.ok && report && report->fell();
+  // A trial spent on faults (its last report a plant fault or a divergence) was never in the model.
+  const bool excluded = !t.ok && report && domain::reissued_not_spent(report->outcome);
+  return bo::Observation{t.x, t.cost, !t.ok, fell, excluded};
+}
+
+// What a restart accounts for a stored trial: its report, or a failure when the stored one is unreadable.
+domain::RolloutReport replayed_report(const study::StoredTrial& t, std::string* why) {
+  if (auto report = study::stored_report(t, why)) return *report;
+  domain::RolloutReport failed;
+  failed.outcome = domain::Outcome::kError;
+  failed.error = "stored report unreadable";
+  return failed;
+}
+
+// The origin a migrated spec is stored with: which release resolved it, and why it had to.
+std::string migrated_origin() {
+  return fmt::format("migrated: the study was stored before specs existed; resolved at its first open from the "
+                     "defaults this release ships (objective version {}, the science of the release that wrote it)",
+                     study::kObjectiveVersion);
+}
+
+}  // namespace
+
+void Coordinator::resume_from_store(double now_s) {
+  for (const study::StoredStudy& stored : store_.load_all()) {
+    StudyRun s;
+    s.id = stored.study_id;
+    s.name = stored.name;
+    s.state = domain::study_status_from_string(stored.state).value_or(StudyStatus::kFailed);
+    s.message = stored.message;
+    if (!domain::study_status_from_string(stored.state)) s.message = fmt::format("unknown stored state '{}'", stored.state);
+    s.created_at_s = stored.created_at_s;
+    try {
+      if (stored.spec.json.empty()) {
+        // A store from before specs: the spec is the defaults of this release (same science), said so.
+        auto spec = std::make_shared<const study::StudySpec>(
+            study::StudySpec::resolve(stored.config_yaml, stored.source_name, spec_defaults()));
+        const study::StoredSpec migrated{spec->canonical_json(), spec->sha256(), migrated_origin()};
+        store_.set_spec(s.id, migrated);
+        info_(fmt::format("study {} '{}': stored before specs; spec {} resolved from this release's defaults", s.id,
+                          s.name, spec->sha256().substr(0, 16)));
+        s.spec = std::move(spec);
+      } else {
+        s.spec = std::make_shared<const study::StudySpec>(
+            study::StudySpec::from_json_text(stored.spec.json, fmt::format("study {} spec", s.id)));
+        if (s.spec->sha256() != stored.spec.sha256) {
+          throw InputError(fmt::format("its stored spec hashes to {}, not to the stored {}", s.spec->sha256(),
+                                       stored.spec.sha256));
+        }
+      }
+      s.config = s.spec->config();
+    } catch (const std::exception& e) {
+      // Cannot happen for a study this service accepted, unless the file was edited by hand.
+      // An open study is failed on record; a finished one keeps its stored state (its results stand: only
+      // this release cannot re-derive its spec, e.g. a config folder missing here).
+      const bool was_open = domain::is_open(s.state);
+      warn_(fmt::format("study {} in {}: its configuration no longer loads ({}); {}", s.id, store_.path(), e.what(),
+                        was_open ? "marked failed" : "left as stored"));
+      if (was_open) store_.set_state(s.id, to_string(StudyStatus::kFailed), e.what());
+      continue;
+    }
+    const int id = s.id;
+    try {
+      if (!stored.load_error.empty()) throw std::runtime_error(stored.load_error);
+      open_study(std::move(s), &stored, now_s);
+    } catch (const std::exception& e) {
+      // One study that cannot be reopened (a corrupt row, a state this build cannot restore, memory) must
+      // not take the rest of the store with it: mark it failed with the reason and serve the others.
+      studies_.erase(id);
+      warn_(fmt::format("study {} in {}: cannot be reopened ({}); marked failed", id, store_.path(), e.what()));
+      store_.set_state(id, to_string(StudyStatus::kFailed), fmt::format("cannot be reopened: {}", e.what()));
+    }
+  }
+  if (!studies_.empty()) info_(fmt::format("resumed {} studies from {}", studies_.size(), store_.path()));
+}
+
+void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored, double now_s) {
+  const int id = fresh.id;
+  auto [it, inserted] = studies_.emplace(id, std::move(fresh));
+  StudyRun& s = it->second;
+  std::vector<const study::StoredTrial*> done, validated;
+  if (stored != nullptr) {
+    for (const auto& t : stored->trials) {
+      s.next_trial_id = std::max(s.next_trial_id, t.trial_id + 1);
+      const bool validation = t.phase == "validation";
+      if (validation) s.validation_started = true;
+      if (t.status == study::TrialStatus::kDone) {
+        (validation ? validated : done).push_back(&t);
+      } else {
+        // Re-issued once a slot is free; the worker it last went to may still report that attempt. A
+        // validation set stored but never issued has no worker yet: it is issued, not re-issued.
+        InFlight f{t.x, t.attempt, "", 0.0, {}, validation};
+        if (!t.worker_id.empty()) f.issued_to[t.attempt] = t.worker_id;
+        s.in_flight[t.trial_id] = std::move(f);
+      }
+    }
+  }
+  // The optimizer was told the reports in the order they were counted, which with parallel workers is
+  // not the trial order: replay them in that order (report_seq; stores older than it: report time).
+  std::stable_sort(done.begin(), done.end(), [](const study::StoredTrial* a, const study::StoredTrial* b) {
+    if (a->report_seq != b->report_seq) return a->report_seq < b->report_seq;
+    return a->reported_at_s != b->reported_at_s ? a->reported_at_s < b->reported_at_s : a->trial_id < b->trial_id;
+  });
+  std::vector<bo::Observation> observations;
+  if (s.config.lockstep > 0) {
+    // Lockstep: the optimizer holds trials 0..T-1 in trial order, T = what its saved state was fitted on;
+    // the other reports wait in `untold` until an ask needs them, exactly as they would have.
+    std::sort(done.begin(), done.end(),
+              [](const study::StoredTrial* a, const study::StoredTrial* b) { return a->trial_id < b->trial_id; });
+    const auto told = static_cast<std::size_t>(saved_state_observations(stored).value_or(0));
+    for (const auto* t : done) {
+      if (t->trial_id == static_cast<int>(observations.size()) && observations.size() < told) {
+        observations.push_back(stored_observation(*t));
+        s.told_trials.push_back(t->trial_id);
+      } else {
+        s.untold.emplace_back(t->trial_id, stored_observation(*t));
+      }
+    }
+  } else {
+    // The saved state covers the first reports counted; the ones after it were counted but not yet told
+    // (their model job had not finished when the optimizer stopped). They wait in `untold` for the study's
+    // next model job, which tells them as one batch off the event loop, as the uninterrupted run's next job
+    // would have (a finished study too: its last reports get a job of their own). Telling them here, one
+    // refit each, kept a restart on 1000 results from serving for 7-9 s.
+    // Without a usable state (or one covering more reports than stored) every report is replayed.
+    const std::optional<int> saved = saved_state_observations(stored);
+    const std::size_t told =
+        saved && static_cast<std::size_t>(*saved) <= done.size() ? static_cast<std::size_t>(*saved) : done.size();
+    for (std::size_t i = 0; i < done.size(); ++i) {
+      if (i < told) {
+        observations.push_back(stored_observation(*done[i]));
+        s.told_trials.push_back(done[i]->trial_id);
+      } else {
+        s.untold.emplace_back(done[i]->trial_id, stored_observation(*done[i]));
+      }
+    }
+  }
+  s.optimizer = std::make_shared<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
+  s.model = ModelSnapshot::of(*s.optimizer, s.told_trials);
+  for (const auto* t : done) {
+    const int trial_id = t->trial_id;
+    std::string why;
+    const domain::RolloutReport report = replayed_report(*t, &why);
+    if (!why.empty()) {
+      warn_(fmt::format("study {} trial {}: stored report unreadable ({}); counted as failed", id, trial_id, why));
+    }
+    s.account_report(trial_id, t->x, report);  // the optimizer already holds it: counters and best only
+    // A finished study's records are served from the store (analyze, plot), not kept on the topic.
+    if (s.is_open()) out_.publish_trial(s.trial_record(trial_id, t->x, report));
+  }
+  std::sort(validated.begin(), validated.end(),
+            [](const study::StoredTrial* a, const study::StoredTrial* b) { return a->trial_id < b->trial_id; });
+  for (const auto* t : validated) {
+    const domain::RolloutReport report = replayed_report(*t, nullptr);
+    s.account_validation(t->trial_id, report);
+    if (s.is_open()) out_.publish_trial(s.trial_record(t->trial_id, t->x, report));
+  }
+  s.records_retired = !s.is_open();
+  if (s.is_open()) out_.publish_spec(s.spec_publication());  // before any of its candidates
+  release_optimizer_if_done(s);
+  s.session_start_s = now_s;
+  s.completed_at_session_start = s.completed;
+  if (!s.in_flight.empty()) {
+    info_(fmt::format("study {} '{}': {} observations replayed, {} candidates in flight to re-issue", id, s.name,
+                      s.completed, s.in_flight.size()));
+  }
+  finish_if_complete(s);
+  s.dirty = true;
+}
+
+bo::BayesianOptimizer Coordinator::restored_optimizer(const StudyRun& s, const study::StoredStudy* stored,
+                                                      const std::vector<bo::Observation>& observations) const {
+  if (observations.empty()) return bo::BayesianOptimizer(s.config.space, s.config.optimizer);
+  if (stored != nullptr && stored->model_state.is_object()) {
+    try {
+      return bo::BayesianOptimizer::restore(s.config.space, s.config.optimizer, observations,
+                                            bo::model_state_from_json(stored->model_state));
+    } catch (const std::exception& e) {
+      warn_(fmt::format("study {}: saved model state unusable ({}); replaying {} observations instead", s.id, e.what(),
+                        observations.size()));
+    }
+  } else {
+    info_(fmt::format("study {}: no saved model state (older store); replaying {} observations", s.id,
+                      observations.size()));
+  }
+  return bo::BayesianOptimizer::rebuild(s.config.space, s.config.optimizer, observations);
+}
+
+}  // namespace cpgmatch::service

@@ -1,0 +1,151 @@
+#include "cpgmatch/service/study_run.hpp"
+
+#include <algorithm>
+
+#include "cpgmatch/domain/worker_identity.hpp"
+#include "cpgmatch/params.hpp"
+#include "cpgmatch/seeds.hpp"
+
+namespace cpgmatch::service {
+
+ModelSnapshot ModelSnapshot::of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials) {
+  ModelSnapshot m;
+  if (const auto rec = optimizer.recommended()) {
+    m.has_recommendation = true;
+    m.recommended_trial = told_trials.at(rec->observation);
+    m.recommended_predicted_cost = rec->predicted;
+    m.recommended_x = optimizer.observations()[rec->observation].x;
+    m.recommended_params = optimizer.space().to_named(m.recommended_x);
+  }
+  return m;
+}
+
+int StudyRun::exploring_in_flight() const {
+  return static_cast<int>(
+      std::count_if(in_flight.begin(), in_flight.end(), [](const auto& kv) { return !kv.second.validation; }));
+}
+
+bool StudyRun::complete() const {
+  if (completed < config.budget) return false;
+  const auto& v = config.validation;
+  return !v.enabled || (validation_started && validated >= v.hardware_sets);
+}
+
+bool StudyRun::count_outcome(const domain::RolloutReport& r) {
+  dirty = true;
+  if (!r.ok()) {
+    ++failed;
+    ++consecutive_failures;
+    return false;
+  }
+  consecutive_failures = 0;
+  if (r.fell()) ++falls;
+  return true;
+}
+
+void StudyRun::account_report(int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& r) {
+  ++completed;
+  if (!count_outcome(r)) return;
+  if (!(r.summary.cost >= best_cost)) {  // also true while best_cost is NaN
+    best_cost = r.summary.cost;
+    best_trial = trial_id;
+    best_params = config.space.to_named(x);
+    best_x = x;
+    best_normalized_torque = r.summary.normalized_torque;
+    best_speed_mps = r.summary.mean_speed_mps;
+  }
+}
+
+void StudyRun::account_validation(int trial_id, const domain::RolloutReport& r) {
+  ++validated;
+  validation_trials.push_back(trial_id);
+  count_outcome(r);
+}
+
+bo::Observation StudyRun::observation(const Eigen::VectorXd& x, const domain::RolloutReport& r) {
+  return bo::Observation{x, r.ok() ? r.summary.cost : 0.0, !r.ok(), r.fell(),
+                         !r.ok() && domain::reissued_not_spent(r.outcome)};
+}
+
+bool StudyRun::is_study_robot(const PoolWorker& worker) const {
+  // The same rule as a worker id and its certificate: the robot's name, or the name and a suffix.
+  return !worker.hardware || config.robot.empty() || domain::worker_id_belongs_to(worker.id, config.robot);
+}
+
+bool StudyRun::may_serve(const PoolWorker& worker, double now_s) const {
+  if (!is_study_robot(worker)) return false;
+  const auto r = refused_by.find(worker.id);
+  return r == refused_by.end() || now_s >= r->second.until_s;
+}
+
+domain::Candidate StudyRun::candidate(std::uint64_t store_id, int trial_id) const {
+  const InFlight& f = in_flight.at(trial_id);
+  domain::Candidate c;
+  c.id = domain::AttemptId{store_id, id, trial_id, f.attempt};
+  c.worker_id = f.worker_id;
+  c.lease_s = config.effective_lease_s();
+  c.spec_key = spec->key();
+  c.rollout.entrain_s = config.entrain_s;
+  c.rollout.eval_s = config.eval_s;
+  c.rollout.terrain = config.terrain;
+  // Each trial gets its own rollout seed (sensor noise, rough ground): the optimizer then sees the
+  // rollout-to-rollout spread it must be robust to, instead of one frozen noise realisation that a lucky
+  // point can exploit. Still a pure function of (study seed, trial id): same seed, same study.
+  c.rollout.seed = derived_seed(config.optimizer.seed, static_cast<std::uint64_t>(trial_id));
+  c.parameters = to_map(spec->base_parameters());
+  for (const auto& [parameter, value] : config.space.to_named(f.x)) c.parameters[parameter] = value;
+  return c;
+}
+
+domain::TrialRecord StudyRun::trial_record(int trial_id, const Eigen::VectorXd& x,
+                                           const domain::RolloutReport& r) const {
+  domain::TrialRecord t;
+  t.study_id = id;
+  t.trial_id = trial_id;
+  t.initial = trial_id < config.optimizer.initial_points;
+  t.parameters = config.space.to_named(x);
+  t.report = r;
+  t.report.id.study_id = id;
+  t.report.id.trial_id = trial_id;
+  return t;
+}
+
+domain::SpecPublication StudyRun::spec_publication() const {
+  return domain::SpecPublication{spec->key(), static_cast<int>(spec->objective_version()), spec->sha256(),
+                                 spec->canonical_json()};
+}
+
+domain::StudyState StudyRun::state_sample(int workers, double wall_now_s, double now_s) const {
+  domain::StudyState st;
+  st.study_id = id;
+  st.name = name;
+  st.status = state;
+  // Both phases count: budget = exploration budget + validation sets, completed = reports of either.
+  const int sets = config.validation.enabled ? config.validation.hardware_sets : 0;
+  st.budget = config.budget + sets;
+  st.completed = completed + validated;
+  st.in_flight = static_cast<int>(in_flight.size());
+  st.failed = failed;
+  st.falls = falls;
+  st.reissued = reissued;
+  st.workers = workers;
+  st.best_cost = best_cost;
+  st.best_trial = best_trial;
+  st.best_params = best_params;
+  st.best_normalized_torque = best_normalized_torque;
+  st.best_speed_mps = best_speed_mps;
+  // Wall time, as created_at_s is (it survives restarts): after the clock is stepped back past a study's
+  // creation, 0 rather than a negative age.
+  st.elapsed_s = std::max(0.0, wall_now_s - created_at_s);
+  const double session = now_s - session_start_s;
+  st.rollouts_per_s = session > 0.0 ? (completed - completed_at_session_start) / session : 0.0;
+  st.message = message;
+  if (model.has_recommendation) {
+    st.has_recommendation = true;
+    st.recommendation =
+        domain::Recommendation{model.recommended_trial, model.recommended_predicted_cost, model.recommended_params};
+  }
+  return st;
+}
+
+}  // namespace cpgmatch::service
