@@ -16,6 +16,7 @@
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/bo/test_functions.hpp"
 #include "cpgmatch/bo/transfer_gp.hpp"
+#include "cpgmatch/errors.hpp"
 
 namespace cpgmatch::bo {
 namespace {
@@ -243,6 +244,74 @@ TEST(HardwareOptimizer, WhereTheSimulationFallsTheRobotIsNotSent) {
   EXPECT_TRUE(p.within_fall_limit);
   EXPECT_LE(p.fall_probability, options.max_fall_probability);
   EXPECT_GT(from_minimum(p.x), from_minimum(b.x));
+}
+
+TEST(HardwareOptimizer, ARestoredOptimizerPredictsAndProposesExactlyWhatTheOriginalWould) {
+  for (HardwareStrategy strategy : {HardwareStrategy::kMultiFidelity, HardwareStrategy::kTransfer}) {
+    HardwareOptimizerOptions options;
+    options.strategy = strategy;
+    options.seed = 7;
+    options.hyperparameter_restart_every = 2;  // both kinds of fit (warm and with restarts) within the run
+    auto robot = [](const Eigen::VectorXd& x) { return 0.8 * simulated(x) + 0.4 + 0.3 * x[1]; };
+    auto robot_falls = [](const Eigen::VectorXd& x) { return x[0] > 0.85; };
+    HardwareOptimizer original(unit_square(), options);
+    const Eigen::MatrixXd Xs = make_initial_design(InitialDesign::kSobol, 26, 2, 11);
+    for (Eigen::Index i = 0; i < Xs.rows(); ++i) {
+      const Eigen::VectorXd x = Xs.row(i).transpose();
+      original.tell_simulation({x, simulated(x), false, x[1] < 0.1});  // simulated falls too
+    }
+    original.tell_hardware({Eigen::Vector2d(0.95, 0.5), robot(Eigen::Vector2d(0.95, 0.5)), false, true});
+    original.tell_hardware({Eigen::Vector2d(0.3, 0.5), robot(Eigen::Vector2d(0.3, 0.5))});
+    auto step = [&](HardwareOptimizer& hw, int k) {
+      if (k % 2 == 1) {  // simulations go on meanwhile
+        const Eigen::Vector2d x(0.1 * k, 0.05 * k + 0.3);
+        hw.tell_simulation({x, simulated(x)});
+      }
+      const HardwareProposal p = hw.ask();
+      hw.tell_hardware({p.x, robot(p.x), false, robot_falls(p.x)});
+      return p;
+    };
+    for (int k = 0; k < 3; ++k) step(original, k);
+    // Saved after the third result (the last fit was at the third ask), through JSON as a store keeps it.
+    const std::string saved = hardware_model_state_to_json(original.model_state()).dump();
+    HardwareOptimizer restored =
+        HardwareOptimizer::restore(unit_square(), options, original.simulation_observations(),
+                                   original.hardware_observations(), hardware_model_state_from_json(nlohmann::json::parse(saved)));
+    const char* name = strategy == HardwareStrategy::kTransfer ? "transfer" : "multi_fidelity";
+    for (const Eigen::Vector2d& x : {Eigen::Vector2d(0.1, 0.2), Eigen::Vector2d(0.8, 0.9)}) {
+      EXPECT_EQ(restored.predict_hardware(x).mean, original.predict_hardware(x).mean) << name;
+      EXPECT_EQ(restored.predict_hardware(x).std, original.predict_hardware(x).std) << name;
+      EXPECT_EQ(restored.fall_probability(x), original.fall_probability(x)) << name;
+    }
+    EXPECT_EQ(hardware_model_state_to_json(restored.model_state()).dump(), saved) << name;
+    for (int k = 3; k < 7; ++k) {
+      const HardwareProposal a = step(original, k), b = step(restored, k);
+      EXPECT_EQ(a.x, b.x) << name << " proposal " << k;
+      EXPECT_EQ(a.expected_improvement, b.expected_improvement) << name << " proposal " << k;
+    }
+    const std::vector<Eigen::VectorXd> pending{Eigen::Vector2d(0.5, 0.5)};
+    EXPECT_EQ(original.ask(pending).x, restored.ask(pending).x) << name;
+    ASSERT_TRUE(original.recommended() && restored.recommended());
+    EXPECT_EQ(original.recommended()->observation, restored.recommended()->observation) << name;
+    EXPECT_EQ(original.recommended()->predicted, restored.recommended()->predicted) << name;
+  }
+}
+
+TEST(HardwareOptimizer, AStateSavedBeforeTheLatestResultsRestoresExactlyToo) {
+  // Saved, then two more results arrived before the restart: the restored optimizer fits for them at
+  // its next ask, warm-started from the saved fit, as the original does.
+  HardwareOptimizerOptions options;
+  options.seed = 8;
+  HardwareOptimizer original(unit_square(), options);
+  tell_bowl(original, [](const Eigen::VectorXd&) { return false; });
+  original.ask();
+  const HardwareModelState early = original.model_state();
+  original.tell_hardware({Eigen::Vector2d(0.6, 0.5), robot_bowl(Eigen::Vector2d(0.6, 0.5))});
+  original.tell_simulation({Eigen::Vector2d(0.6, 0.5), bowl(Eigen::Vector2d(0.6, 0.5))});
+  HardwareOptimizer restored = HardwareOptimizer::restore(unit_square(), options, original.simulation_observations(),
+                                                          original.hardware_observations(), early);
+  EXPECT_EQ(original.ask().x, restored.ask().x);
+  EXPECT_THROW(HardwareOptimizer::restore(unit_square(), options, {}, original.hardware_observations(), early), InputError);
 }
 
 }  // namespace
