@@ -119,12 +119,16 @@ Recovery recover(const std::function<double(const Eigen::VectorXd&)>& offset, st
   return r;
 }
 
+void print(const Recovery& r, const char* what, std::uint64_t seed) {
+  std::printf("%s, seed %llu: rho %.4f, offset error max %.4f rms %.4f, hardware rms %.4f (hardware-only GP %.4f)\n", what,
+              static_cast<unsigned long long>(seed), r.rho, r.max_offset_error, r.rms_offset_error, r.rms_hardware_error,
+              r.rms_hardware_only_error);
+}
+
 TEST(MultiFidelityGP, RecoversRhoAndAConstantOffsetFrom30SimulatedAnd8HardwarePoints) {
   for (std::uint64_t seed : {1, 2, 3}) {
     const Recovery r = recover([](const Eigen::VectorXd&) { return 1.5; }, seed);
-    std::printf("constant offset 1.5, seed %llu: rho %.4f, offset error max %.4f rms %.4f, hardware rms %.4f (hardware-only GP %.4f)\n",
-                static_cast<unsigned long long>(seed), r.rho, r.max_offset_error, r.rms_offset_error,
-                r.rms_hardware_error, r.rms_hardware_only_error);
+    print(r, "constant offset 1.5", seed);
     EXPECT_NEAR(r.rho, 0.8, 0.02) << "seed " << seed;
     EXPECT_LT(r.max_offset_error, 0.05) << "seed " << seed;
     EXPECT_LT(r.rms_hardware_error, 0.5 * r.rms_hardware_only_error) << "seed " << seed;
@@ -136,9 +140,7 @@ TEST(MultiFidelityGP, RecoversRhoAndASmoothOffset) {
   auto offset = [](const Eigen::VectorXd& x) { return 1.0 + 0.5 * x[0] + 0.3 * std::sin(kPi * x[1]); };
   for (std::uint64_t seed : {1, 2, 3}) {
     const Recovery r = recover(offset, seed);
-    std::printf("smooth offset, seed %llu: rho %.4f, offset error max %.4f rms %.4f, hardware rms %.4f (hardware-only GP %.4f)\n",
-                static_cast<unsigned long long>(seed), r.rho, r.max_offset_error, r.rms_offset_error,
-                r.rms_hardware_error, r.rms_hardware_only_error);
+    print(r, "smooth offset", seed);
     EXPECT_NEAR(r.rho, 0.8, 0.1) << "seed " << seed;
     EXPECT_LT(r.rms_offset_error, 0.1) << "seed " << seed;
     EXPECT_LT(r.rms_hardware_error, 0.5 * r.rms_hardware_only_error) << "seed " << seed;

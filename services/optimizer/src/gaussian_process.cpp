@@ -57,6 +57,30 @@ GpHyperparameters GpHyperparameters::unpack(const Eigen::VectorXd& theta) {
 
 GaussianProcess::GaussianProcess(GpOptions options) : options_(options) {}
 
+bool cholesky_for_likelihood(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt) {
+  llt.compute(K);
+  double jitter = 1e-10;
+  while (llt.info() != Eigen::Success && jitter < 1.0) {
+    K.diagonal().array() += jitter;
+    llt.compute(K);
+    jitter *= 10.0;
+  }
+  return llt.info() == Eigen::Success;
+}
+
+double cholesky_with_jitter(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt) {
+  llt.compute(K);
+  double total = 0.0;
+  double add = 1e-10 * std::max(1.0, K.diagonal().mean());
+  while (llt.info() != Eigen::Success) {
+    K.diagonal().array() += add;
+    total += add;
+    add *= 10.0;
+    llt.compute(K);
+  }
+  return total;
+}
+
 Eigen::MatrixXd matern52_kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h) {
   const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
   const Eigen::MatrixXd As = A * inv_l.matrix().asDiagonal();
@@ -190,14 +214,8 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   Eigen::MatrixXd K = gram.covariance();
   const double noise = std::exp(h.log_noise);
   K.diagonal().array() += noise;
-  Eigen::LLT<Eigen::MatrixXd> llt(K);
-  double jitter = 1e-10;
-  while (llt.info() != Eigen::Success && jitter < 1.0) {
-    K.diagonal().array() += jitter;
-    llt.compute(K);
-    jitter *= 10.0;
-  }
-  if (llt.info() != Eigen::Success) {
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  if (!cholesky_for_likelihood(K, llt)) {
     if (grad) grad->setZero(theta.size());
     return -1e25;
   }
@@ -304,15 +322,8 @@ Eigen::VectorXd GaussianProcess::solve(const Eigen::VectorXd& b) const {
 void GaussianProcess::factorise() {
   Eigen::MatrixXd K = kernel(X_, X_, hyper_);
   K.diagonal().array() += std::exp(hyper_.log_noise);
-  jitter_ = 0.0;
-  Eigen::LLT<Eigen::MatrixXd> llt(K);
-  double add = 1e-10 * std::max(1.0, K.diagonal().mean());
-  while (llt.info() != Eigen::Success) {
-    K.diagonal().array() += add;
-    jitter_ += add;
-    add *= 10.0;
-    llt.compute(K);
-  }
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  jitter_ = cholesky_with_jitter(K, llt);
   L_ = llt.matrixL();
   alpha_ = solve(y_std_);
 }

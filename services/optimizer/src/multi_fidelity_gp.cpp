@@ -101,14 +101,8 @@ double MultiFidelityGP::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   Matern52Gram sim_gram(X_, h.simulation);
   Matern52Gram discrepancy_gram(X_.bottomRows(nh_), h.discrepancy);
   Eigen::MatrixXd K = joint_covariance(h, sim_gram.covariance(), discrepancy_gram.covariance());
-  Eigen::LLT<Eigen::MatrixXd> llt(K);
-  double jitter = 1e-10;
-  while (llt.info() != Eigen::Success && jitter < 1.0) {
-    K.diagonal().array() += jitter;
-    llt.compute(K);
-    jitter *= 10.0;
-  }
-  if (llt.info() != Eigen::Success) {
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  if (!cholesky_for_likelihood(K, llt)) {
     if (grad) grad->setZero(theta.size());
     return -1e25;
   }
@@ -233,15 +227,8 @@ void MultiFidelityGP::factorise() {
   const Eigen::MatrixXd hw = X_.bottomRows(nh_);
   Eigen::MatrixXd K = joint_covariance(hyper_, matern52_kernel(X_, X_, hyper_.simulation),
                                        matern52_kernel(hw, hw, hyper_.discrepancy));
-  jitter_ = 0.0;
-  Eigen::LLT<Eigen::MatrixXd> llt(K);
-  double add = 1e-10 * std::max(1.0, K.diagonal().mean());
-  while (llt.info() != Eigen::Success) {
-    K.diagonal().array() += add;
-    jitter_ += add;
-    add *= 10.0;
-    llt.compute(K);
-  }
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  jitter_ = cholesky_with_jitter(K, llt);
   L_ = llt.matrixL();
   const Profile p = profile_mean(llt, mean_basis(hyper_.rho), y_std_);
   beta_.setZero();

@@ -58,6 +58,15 @@ Eigen::VectorXd maximise_from_starts(const std::function<double(const Eigen::Vec
 // K^-1 from the lower Cholesky factor L of K (K = L L^T), symmetric; for the likelihood's gradient.
 Eigen::MatrixXd inverse_from_cholesky(const Eigen::MatrixXd& L);
 
+// Cholesky factorisations of a covariance K that retry with growing jitter on the diagonal (K is
+// modified: it ends with the jitter added), so that near-duplicate points never stop a model.
+// For a likelihood evaluation: 1e-10, 1e-9, ... (below 1) added in turn; false when even that fails (the
+// caller scores those hyperparameters as impossible).
+bool cholesky_for_likelihood(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt);
+// For a fitted model's factor: 1e-10 * max(1, mean diagonal), growing tenfold until it succeeds; returns
+// the total jitter added.
+double cholesky_with_jitter(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt);
+
 // amplitude * Matern52 between the rows of A and the rows of B (no noise term): the covariance of every
 // GP in this library (the cost GP, the fall classifier, both parts of the multi-fidelity model).
 Eigen::MatrixXd matern52_kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h);
