@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 
 #include <nlopt.hpp>
 
@@ -56,8 +57,31 @@ GpHyperparameters GpHyperparameters::unpack(const Eigen::VectorXd& theta) {
 
 GaussianProcess::GaussianProcess(GpOptions options) : options_(options) {}
 
-Eigen::MatrixXd GaussianProcess::kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
-                                        const GpHyperparameters& h) const {
+bool cholesky_for_likelihood(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt) {
+  llt.compute(K);
+  double jitter = 1e-10;
+  while (llt.info() != Eigen::Success && jitter < 1.0) {
+    K.diagonal().array() += jitter;
+    llt.compute(K);
+    jitter *= 10.0;
+  }
+  return llt.info() == Eigen::Success;
+}
+
+double cholesky_with_jitter(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt) {
+  llt.compute(K);
+  double total = 0.0;
+  double add = 1e-10 * std::max(1.0, K.diagonal().mean());
+  while (llt.info() != Eigen::Success) {
+    K.diagonal().array() += add;
+    total += add;
+    add *= 10.0;
+    llt.compute(K);
+  }
+  return total;
+}
+
+Eigen::MatrixXd matern52_kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h) {
   const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
   const Eigen::MatrixXd As = A * inv_l.matrix().asDiagonal();
   const Eigen::MatrixXd Bs = B * inv_l.matrix().asDiagonal();
@@ -78,52 +102,120 @@ Eigen::MatrixXd GaussianProcess::kernel(const Eigen::MatrixXd& A, const Eigen::M
   return K;
 }
 
-Eigen::VectorXd GaussianProcess::lower_bounds(int d) const {
+Eigen::MatrixXd GaussianProcess::kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
+                                        const GpHyperparameters& h) const {
+  return matern52_kernel(A, B, h);
+}
+
+Matern52Gram::Matern52Gram(const Eigen::MatrixXd& X, const GpHyperparameters& h) {
+  const Eigen::Index n = X.rows(), d = X.cols();
+  amp_ = std::exp(h.log_amplitude);
+  const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
+  Xs_ = X * inv_l.matrix().asDiagonal();
+  // Scaled distances r and exp(-sqrt5 r), once per pair: the kernel and every length-scale gradient use
+  // them (the likelihood is most of a hyperparameter fit). Per dimension, as whole-matrix array
+  // operations (vectorised; the pairwise differences themselves, not a Gram matrix, so close points keep
+  // their accuracy). Squared distances, then the distances in the same array (one n x n buffer fewer).
+  R_ = Eigen::ArrayXXd::Zero(n, n);
+  for (Eigen::Index b = 0; b < n; ++b) {
+    for (Eigen::Index j = 0; j < d; ++j) R_.col(b) += (Xs_.col(j).array() - Xs_(b, j)).square();
+  }
+  R_ = R_.sqrt();
+  E_ = (-kSqrt5 * R_).exp();
+  K_ = (amp_ * (1.0 + kSqrt5 * R_ + 5.0 / 3.0 * R_.square()) * E_).matrix();
+}
+
+Eigen::VectorXd Matern52Gram::half_trace_gradient(const Eigen::MatrixXd& W) {
+  if (used_) throw std::logic_error("Matern52Gram::half_trace_gradient called twice");
+  used_ = true;
+  const Eigen::Index n = Xs_.rows(), d = Xs_.cols();
+  Eigen::VectorXd grad(d + 1);
+  grad[0] = 0.5 * (W.array() * K_.array()).sum();
+  // For Matern 5/2: dk/dlog(l_j) = amp * 5/3 (1 + sqrt5 r) exp(-sqrt5 r) * (x_j - x'_j)^2 / l_j^2.
+  // The common factor overwrites E (not needed any more). Column b's terms for every dimension while
+  // the column is in cache; each dimension's sum still runs over b in order.
+  Eigen::ArrayXXd& common = E_;
+  common = amp_ * 5.0 / 3.0 * (1.0 + kSqrt5 * R_) * E_ * W.array();
+  Eigen::VectorXd sums = Eigen::VectorXd::Zero(d);
+  for (Eigen::Index b = 0; b < n; ++b) {
+    for (Eigen::Index j = 0; j < d; ++j) sums[j] += (common.col(b) * (Xs_.col(j).array() - Xs_(b, j)).square()).sum();
+  }
+  grad.tail(d) = 0.5 * sums;  // symmetric; zero on the diagonal
+  return grad;
+}
+
+Eigen::VectorXd GpOptions::lower_bounds(int d) const {
   Eigen::VectorXd lb(d + 2);
-  lb[0] = std::log(options_.min_amplitude);
-  lb.segment(1, d).setConstant(std::log(options_.min_length_scale));
-  lb[d + 1] = std::log(options_.min_noise);
+  lb[0] = std::log(min_amplitude);
+  lb.segment(1, d).setConstant(std::log(min_length_scale));
+  lb[d + 1] = std::log(min_noise);
   return lb;
 }
 
-Eigen::VectorXd GaussianProcess::upper_bounds(int d) const {
+Eigen::VectorXd GpOptions::upper_bounds(int d) const {
   Eigen::VectorXd ub(d + 2);
-  ub[0] = std::log(options_.max_amplitude);
-  ub.segment(1, d).setConstant(std::log(options_.max_length_scale));
-  ub[d + 1] = std::log(options_.max_noise);
+  ub[0] = std::log(max_amplitude);
+  ub.segment(1, d).setConstant(std::log(max_length_scale));
+  ub[d + 1] = std::log(max_noise);
   return ub;
+}
+
+Eigen::VectorXd GpOptions::random_start(int d, std::mt19937_64& rng) const {
+  const Eigen::VectorXd lb = lower_bounds(d), ub = upper_bounds(d);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  Eigen::VectorXd t(d + 2);
+  for (int i = 0; i < d + 2; ++i) t[i] = lb[i] + unit(rng) * (ub[i] - lb[i]);
+  t[d + 1] = std::log(min_noise) + unit(rng) * (std::log(1e-1) - std::log(min_noise));
+  return t;
+}
+
+Eigen::VectorXd maximise_from_starts(const std::function<double(const Eigen::VectorXd&, Eigen::VectorXd*)>& f,
+                                     const std::vector<Eigen::VectorXd>& starts, const Eigen::VectorXd& lb,
+                                     const Eigen::VectorXd& ub, int max_evaluations) {
+  using Function = std::function<double(const Eigen::VectorXd&, Eigen::VectorXd*)>;
+  auto objective = [](unsigned size, const double* x, double* g, void* data) -> double {
+    const Function& function = *static_cast<const Function*>(data);
+    const Eigen::Map<const Eigen::VectorXd> theta(x, size);
+    Eigen::VectorXd grad;
+    const double v = function(theta, g ? &grad : nullptr);
+    if (g) for (unsigned i = 0; i < size; ++i) g[i] = std::isfinite(grad[i]) ? grad[i] : 0.0;
+    return std::isfinite(v) ? v : -1e25;
+  };
+  double best = -std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best_theta = starts.front();
+  for (const auto& s : starts) {
+    nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(lb.size()));
+    opt.set_lower_bounds(std::vector<double>(lb.data(), lb.data() + lb.size()));
+    opt.set_upper_bounds(std::vector<double>(ub.data(), ub.data() + ub.size()));
+    opt.set_max_objective(objective, const_cast<void*>(static_cast<const void*>(&f)));
+    opt.set_maxeval(max_evaluations);
+    opt.set_ftol_rel(1e-9);
+    std::vector<double> x(s.data(), s.data() + s.size());
+    double value = -std::numeric_limits<double>::infinity();
+    try {
+      opt.optimize(x, value);
+    } catch (const std::exception&) {
+      // NLopt throws on roundoff-limited stops; x still holds the best point it found.
+      value = f(Eigen::Map<Eigen::VectorXd>(x.data(), x.size()), nullptr);
+    }
+    if (std::isfinite(value) && value > best) {
+      best = value;
+      best_theta = Eigen::Map<Eigen::VectorXd>(x.data(), x.size());
+    }
+  }
+  return best_theta;
 }
 
 double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Eigen::VectorXd* grad) const {
   const GpHyperparameters h = GpHyperparameters::unpack(theta);
   const int n = static_cast<int>(X_.rows());
   const int d = static_cast<int>(X_.cols());
-  const double amp = std::exp(h.log_amplitude);
-  const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
-  const Eigen::MatrixXd Xs = X_ * inv_l.matrix().asDiagonal();
-  // Scaled distances r and exp(-sqrt5 r), once per pair: the kernel and every length-scale gradient use
-  // them (this function is most of a hyperparameter fit). Per dimension, as whole-matrix array
-  // operations (vectorised; the pairwise differences themselves, not a Gram matrix, so close points keep
-  // their accuracy).
-  // Squared distances, then the distances in the same array (one n x n buffer fewer to allocate and fill).
-  Eigen::ArrayXXd R = Eigen::ArrayXXd::Zero(n, n);
-  for (int b = 0; b < n; ++b) {
-    for (int j = 0; j < d; ++j) R.col(b) += (Xs.col(j).array() - Xs(b, j)).square();
-  }
-  R = R.sqrt();
-  Eigen::ArrayXXd E = (-kSqrt5 * R).exp();
-  const Eigen::MatrixXd Kf = (amp * (1.0 + kSqrt5 * R + 5.0 / 3.0 * R.square()) * E).matrix();
-  Eigen::MatrixXd K = Kf;
+  Matern52Gram gram(X_, h);
+  Eigen::MatrixXd K = gram.covariance();
   const double noise = std::exp(h.log_noise);
   K.diagonal().array() += noise;
-  Eigen::LLT<Eigen::MatrixXd> llt(K);
-  double jitter = 1e-10;
-  while (llt.info() != Eigen::Success && jitter < 1.0) {
-    K.diagonal().array() += jitter;
-    llt.compute(K);
-    jitter *= 10.0;
-  }
-  if (llt.info() != Eigen::Success) {
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  if (!cholesky_for_likelihood(K, llt)) {
     if (grad) grad->setZero(theta.size());
     return -1e25;
   }
@@ -137,18 +229,10 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
     // factor by triangular blocks (inverse_from_cholesky: about half the work of a full triangular
     // solve against the identity and a product of full matrices).
     const Eigen::MatrixXd W = alpha * alpha.transpose() - inverse_from_cholesky(L);
-    (*grad)[0] = 0.5 * (W.array() * Kf.array()).sum();
+    const Eigen::VectorXd kernel_grad = gram.half_trace_gradient(W);
+    (*grad)[0] = kernel_grad[0];
+    grad->segment(1, d) = kernel_grad.tail(d);
     (*grad)[d + 1] = 0.5 * noise * W.trace();
-    // For Matern 5/2: dk/dlog(l_j) = amp * 5/3 (1 + sqrt5 r) exp(-sqrt5 r) * (x_j - x'_j)^2 / l_j^2.
-    // The common factor overwrites E (not needed any more). Column b's terms for every dimension while
-    // the column is in cache; each dimension's sum still runs over b in order.
-    Eigen::ArrayXXd& common = E;
-    common = amp * 5.0 / 3.0 * (1.0 + kSqrt5 * R) * E * W.array();
-    Eigen::VectorXd sums = Eigen::VectorXd::Zero(d);
-    for (int b = 0; b < n; ++b) {
-      for (int j = 0; j < d; ++j) sums[j] += (common.col(b) * (Xs.col(j).array() - Xs(b, j)).square()).sum();
-    }
-    grad->segment(1, d) = 0.5 * sums;  // symmetric; zero on the diagonal
   }
   return lml;
 }
@@ -174,46 +258,12 @@ void GaussianProcess::fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, bo
   hyper_ = initial;
 
   if (optimise && n_ >= 2) {
-    const Eigen::VectorXd lb = lower_bounds(d), ub = upper_bounds(d);
-    auto objective = [](unsigned n, const double* x, double* g, void* data) -> double {
-      const auto* self = static_cast<const GaussianProcess*>(data);
-      const Eigen::Map<const Eigen::VectorXd> theta(x, n);
-      Eigen::VectorXd grad;
-      const double v = self->log_marginal_likelihood(theta, g ? &grad : nullptr);
-      if (g) for (unsigned i = 0; i < n; ++i) g[i] = std::isfinite(grad[i]) ? grad[i] : 0.0;
-      return std::isfinite(v) ? v : -1e25;
-    };
+    const Eigen::VectorXd lb = options_.lower_bounds(d), ub = options_.upper_bounds(d);
     std::vector<Eigen::VectorXd> starts{initial.pack().cwiseMax(lb).cwiseMin(ub)};
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    for (int k = 0; k < options_.random_restarts; ++k) {
-      Eigen::VectorXd t(d + 2);
-      for (int i = 0; i < d + 2; ++i) t[i] = lb[i] + unit(rng) * (ub[i] - lb[i]);
-      // Random restarts over the full box waste effort on absurd noise levels; keep noise small.
-      t[d + 1] = std::log(options_.min_noise) + unit(rng) * (std::log(1e-1) - std::log(options_.min_noise));
-      starts.push_back(t);
-    }
-    double best = -std::numeric_limits<double>::infinity();
-    Eigen::VectorXd best_theta = starts.front();
-    for (const auto& s : starts) {
-      nlopt::opt opt(nlopt::LD_LBFGS, static_cast<unsigned>(d + 2));
-      opt.set_lower_bounds(std::vector<double>(lb.data(), lb.data() + lb.size()));
-      opt.set_upper_bounds(std::vector<double>(ub.data(), ub.data() + ub.size()));
-      opt.set_max_objective(objective, this);
-      opt.set_maxeval(options_.max_evaluations);
-      opt.set_ftol_rel(1e-9);
-      std::vector<double> x(s.data(), s.data() + s.size());
-      double value = -std::numeric_limits<double>::infinity();
-      try {
-        opt.optimize(x, value);
-      } catch (const std::exception&) {
-        // NLopt throws on roundoff-limited stops; x still holds the best point it found.
-        value = log_marginal_likelihood(Eigen::Map<Eigen::VectorXd>(x.data(), x.size()), nullptr);
-      }
-      if (std::isfinite(value) && value > best) {
-        best = value;
-        best_theta = Eigen::Map<Eigen::VectorXd>(x.data(), x.size());
-      }
-    }
+    for (int k = 0; k < options_.random_restarts; ++k) starts.push_back(options_.random_start(d, rng));
+    const Eigen::VectorXd best_theta = maximise_from_starts(
+        [this](const Eigen::VectorXd& theta, Eigen::VectorXd* grad) { return log_marginal_likelihood(theta, grad); },
+        starts, lb, ub, options_.max_evaluations);
     hyper_ = GpHyperparameters::unpack(best_theta);
   }
   factorise();
@@ -272,15 +322,8 @@ Eigen::VectorXd GaussianProcess::solve(const Eigen::VectorXd& b) const {
 void GaussianProcess::factorise() {
   Eigen::MatrixXd K = kernel(X_, X_, hyper_);
   K.diagonal().array() += std::exp(hyper_.log_noise);
-  jitter_ = 0.0;
-  Eigen::LLT<Eigen::MatrixXd> llt(K);
-  double add = 1e-10 * std::max(1.0, K.diagonal().mean());
-  while (llt.info() != Eigen::Success) {
-    K.diagonal().array() += add;
-    jitter_ += add;
-    add *= 10.0;
-    llt.compute(K);
-  }
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  jitter_ = cholesky_with_jitter(K, llt);
   L_ = llt.matrixL();
   alpha_ = solve(y_std_);
 }

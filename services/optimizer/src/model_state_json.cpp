@@ -41,4 +41,33 @@ ModelState model_state_from_json(const nlohmann::json& j) {
   return m;
 }
 
+nlohmann::json hardware_model_state_to_json(const HardwareModelState& m) {
+  nlohmann::json j = {{"simulation_observations", m.simulation_observations},
+                      {"hardware_observations", m.hardware_observations},
+                      {"fits", m.fits},
+                      {"have_hyperparameters", m.have_hyperparameters},
+                      {"hyperparameters", to_vector(m.hyperparameters)}};
+  if (m.have_simulation_fall) j["simulation_fall_hyperparameters"] = to_vector(m.simulation_fall_hyperparameters);
+  if (m.have_hardware_fall) j["hardware_fall_hyperparameters"] = to_vector(m.hardware_fall_hyperparameters);
+  return j;
+}
+
+HardwareModelState hardware_model_state_from_json(const nlohmann::json& j) {
+  HardwareModelState m;
+  m.simulation_observations = j.at("simulation_observations").get<int>();
+  m.hardware_observations = j.at("hardware_observations").get<int>();
+  m.fits = j.at("fits").get<int>();
+  m.have_hyperparameters = j.at("have_hyperparameters").get<bool>();
+  m.hyperparameters = to_eigen(j.at("hyperparameters").get<std::vector<double>>());
+  if (j.contains("simulation_fall_hyperparameters")) {  // absent: no simulated fall seen at the last fit
+    m.have_simulation_fall = true;
+    m.simulation_fall_hyperparameters = to_eigen(j.at("simulation_fall_hyperparameters").get<std::vector<double>>());
+  }
+  if (j.contains("hardware_fall_hyperparameters")) {
+    m.have_hardware_fall = true;
+    m.hardware_fall_hyperparameters = to_eigen(j.at("hardware_fall_hyperparameters").get<std::vector<double>>());
+  }
+  return m;
+}
+
 }  // namespace cpgmatch::bo

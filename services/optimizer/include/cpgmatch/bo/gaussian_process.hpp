@@ -11,7 +11,9 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <random>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Cholesky>
@@ -35,10 +37,63 @@ struct GpOptions {
   double min_noise = 1e-10, max_noise = 1.0;  // standardised units; tiny floor so deterministic objectives are resolved finely
   int random_restarts = 2;
   int max_evaluations = 200;  // per local L-BFGS run
+
+  // The box of GpHyperparameters::pack() for d dimensions, in log units.
+  Eigen::VectorXd lower_bounds(int d) const;
+  Eigen::VectorXd upper_bounds(int d) const;
+  // A random restart of the hyperparameter search (pack() layout): uniform in the box, except the noise,
+  // drawn only up to 0.1 (restarts at absurd noise levels waste the search).
+  Eigen::VectorXd random_start(int d, std::mt19937_64& rng) const;
 };
+
+// Maximises f (value, and its gradient into the second argument when that is non-null) by NLopt L-BFGS
+// within [lb, ub] from each start in turn, at most max_evaluations each, and returns the best point
+// found (the earliest on ties; the first start if nothing finite was found). A non-finite value counts
+// as -1e25 and a non-finite gradient entry as 0; NLopt's roundoff-limited stops keep the point reached.
+// The hyperparameter search of every GP here.
+Eigen::VectorXd maximise_from_starts(const std::function<double(const Eigen::VectorXd&, Eigen::VectorXd*)>& f,
+                                     const std::vector<Eigen::VectorXd>& starts, const Eigen::VectorXd& lb,
+                                     const Eigen::VectorXd& ub, int max_evaluations);
 
 // K^-1 from the lower Cholesky factor L of K (K = L L^T), symmetric; for the likelihood's gradient.
 Eigen::MatrixXd inverse_from_cholesky(const Eigen::MatrixXd& L);
+
+// Cholesky factorisations of a covariance K that retry with growing jitter on the diagonal (K is
+// modified: it ends with the jitter added), so that near-duplicate points never stop a model.
+// For a likelihood evaluation: 1e-10, 1e-9, ... (below 1) added in turn; false when even that fails (the
+// caller scores those hyperparameters as impossible).
+bool cholesky_for_likelihood(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt);
+// For a fitted model's factor: 1e-10 * max(1, mean diagonal), growing tenfold until it succeeds; returns
+// the total jitter added.
+double cholesky_with_jitter(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt);
+
+// amplitude * Matern52 between the rows of A and the rows of B (no noise term): the covariance of every
+// GP in this library (the cost GP, the fall classifier, both parts of the multi-fidelity model).
+Eigen::MatrixXd matern52_kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h);
+
+// The Matern 5/2 covariance of one point set with itself, kept with its pairwise scaled distances so that
+// a marginal likelihood's gradient with respect to the kernel's hyperparameters costs one more pass.
+// Shared by GaussianProcess and MultiFidelityGP (whose two kernels are each one of these).
+class Matern52Gram {
+ public:
+  Matern52Gram(const Eigen::MatrixXd& X, const GpHyperparameters& h);
+
+  // amplitude * Matern52(r) over every pair (no noise term).
+  const Eigen::MatrixXd& covariance() const { return K_; }
+
+  // 0.5 * sum_ab W_ab dK_ab/dtheta for theta = log amplitude, then each log length scale (d + 1 values):
+  // the kernel's share of dLML/dtheta when W = alpha alpha^T - K^-1 (W symmetric, same size as K).
+  // Uses up the stored exponentials (one n x n buffer fewer): call it at most once.
+  Eigen::VectorXd half_trace_gradient(const Eigen::MatrixXd& W);
+
+ private:
+  double amp_ = 1.0;
+  Eigen::MatrixXd Xs_;  // points divided by their length scales
+  Eigen::ArrayXXd R_;   // scaled distances
+  Eigen::ArrayXXd E_;   // exp(-sqrt5 r)
+  Eigen::MatrixXd K_;
+  bool used_ = false;
+};
 
 struct Prediction {
   double mean = 0.0;
@@ -106,8 +161,6 @@ class GaussianProcess {
   Eigen::MatrixXd kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h) const;
   void factorise();
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const;  // K^-1 b with the current factor
-  Eigen::VectorXd lower_bounds(int d) const;
-  Eigen::VectorXd upper_bounds(int d) const;
 
   GpOptions options_;
   GpHyperparameters hyper_;
