@@ -5,7 +5,9 @@
 #include <fmt/format.h>
 
 #include "commands.hpp"
+#include "study_analysis.hpp"
 #include "cpgmatch/analysis/plots.hpp"
+#include "cpgmatch/analysis/sim2real.hpp"
 #include "cpgmatch/analysis/stored_study_trials.hpp"
 
 namespace cpgmatch::cli {
@@ -35,7 +37,14 @@ void add_plot_command(CLI::App& app) {
     if (!opts->store.empty()) {
       const auto stored = analysis::load_stored_study(opts->store, opts->study);
       const fs::path out = opts->out.empty() ? fs::absolute(opts->store).parent_path() : fs::path(opts->out);
-      files = analysis::plot_study(analysis::trials_from_stored_study(stored), out);
+      // A mixed study's hardware validation sets are not the optimizer's history (sim2real draws them).
+      const analysis::FigureReport report =
+          analysis::plot_study(analysis::exploration_trials(analysis::trials_from_stored_study(stored)), out);
+      for (const auto& f : report.files) fmt::print("{}\n", f.string());
+      print_figure_report(report);
+      // What the data cannot give is not a failure; gnuplot failing on a script is.
+      if (!report.failed.empty()) throw std::runtime_error(fmt::format("{} figure(s) failed", report.failed.size()));
+      return;
     } else {
       if (!fs::is_regular_file(opts->trace)) throw InputError(fmt::format("--trace '{}': no such file", opts->trace));
       const fs::path out = opts->out.empty() ? fs::absolute(opts->trace).parent_path() : fs::path(opts->out);
