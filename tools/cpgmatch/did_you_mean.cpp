@@ -24,7 +24,7 @@ std::size_t typing_distance(const std::string& a, const std::string& b) {
 
 std::optional<std::string> unknown_command_hint(const CLI::App& app, int argc, const char* const* argv) {
   const CLI::App* current = &app;
-  std::string path = app.get_name().empty() ? "cpgmatch" : app.get_name();
+  std::string path = "cpgmatch";  // CLI11 names the app after argv[0], a path: users type the command
   for (int i = 1; i < argc; ++i) {
     const std::string word = argv[i];
     if (word.empty() || word[0] == '-') return std::nullopt;  // options: the failure is theirs to explain
@@ -43,6 +43,7 @@ std::optional<std::string> unknown_command_hint(const CLI::App& app, int argc, c
     std::size_t best_distance = std::max<std::size_t>(1, word.size() / 3) + 1;
     std::vector<std::string> names;
     for (const CLI::App* s : subcommands) {
+      if (s->get_group().empty()) continue;  // hidden (internal) commands are neither listed nor suggested
       names.push_back(s->get_name());
       const std::size_t distance = typing_distance(word, s->get_name());
       if (distance < best_distance) {
