@@ -170,7 +170,7 @@ FigureScript importance(const StudyTrials& s, const std::optional<SurrogateView>
       "set xlabel 'relevance (sums to 1); label: share and length scale l in search ranges'\nset xrange [0:{}]\n"
       "set yrange [-0.6:{}]\nset grid xtics\nset key off\nset style fill solid 0.7 noborder\n"
       "plot {} u ($2/2):({}-$0):($2/2):(0.35):ytic(1) w boxxyerror lc rgb '#1f77b4', "
-      "'' u 2:({}-$0):(sprintf('%.0f%%, l = %.3g', 100*$2, $3)) w labels left offset 0.5,0\n",
+      "'' u 2:({}-$0):(sprintf('%.1f%%, l = %.3g', 100*$2, $3)) w labels left offset 0.5,0\n",
       s.name, model->source, num(std::min(1.0, sorted.front().relevance * 1.45 + 0.05)), num(n - 0.4), gnuplot_quote(data),
       n - 1, n - 1);
   return f;
@@ -188,9 +188,12 @@ FigureScript parallel(const StudyTrials& s, const std::vector<SearchDimension>& 
   // and differ by colour only: the palette runs dark (low cost) to light over the walking costs, and its
   // last tenth is red, where falls are put. Log colours when the costs allow it: most gaits of a study
   // cost little, a few much more, and a linear scale painted nearly all of them the same dark blue.
+  // Walking costs fill the palette's lowest `walk_share`; falls (when there are walking ones too) sit at
+  // its red top, apart from the lightest blue so the worst gait is never painted as a fall.
+  const double walk_share = axis.band() ? 0.88 : 1.0;
   const bool log_colour = axis.lowest > 0.0 && axis.hi > axis.lowest;
-  const double cb_top = log_colour ? std::exp(std::log(axis.lowest) + (std::log(axis.hi) - std::log(axis.lowest)) / 0.9)
-                                   : axis.lowest + (axis.hi - axis.lowest) / 0.9;
+  const double cb_top = log_colour ? std::exp(std::log(axis.lowest) + (std::log(axis.hi) - std::log(axis.lowest)) / walk_share)
+                                   : axis.lowest + (axis.hi - axis.lowest) / walk_share;
   const fs::path data = dir / "param_parallel.dat";
   {
     std::ofstream out(data);
@@ -207,12 +210,14 @@ FigureScript parallel(const StudyTrials& s, const std::vector<SearchDimension>& 
   f.width_px = 1200;
   f.height_px = 650;
   f.body = fmt::format(
-      "set palette defined (0 '#08306b', 0.9 '#c6dbef', 0.9 '{}', 1 '{}')\n{}set cbrange [{}:{}]\nset cblabel 'cost J{}'\n"
+      "set palette defined {}\n{}set cbrange [{}:{}]\nset cblabel 'cost J{}'\n"
       "set title \"Parallel coordinates (study {}): every rollout from its parameters to its cost\\n"
       "colour: cost, dark = low{}\"\n"
       "set border 0\nunset ytics\nset key off\nset xrange [0.8:{}.2]\nset xtics (",
-      kFallColour, kFallColour, log_colour ? "set logscale cb\n" : "", num(axis.lowest), num(cb_top),
-      axis.band() ? (log_colour ? " (log colour scale; red: fell)" : " (red: fell)") : "", s.name,
+      axis.band() ? fmt::format("(0 '#08306b', 0.88 '#c6dbef', 0.9 '{}', 1 '{}')", kFallColour, kFallColour)
+                  : std::string("(0 '#08306b', 1 '#c6dbef')"),
+      log_colour ? "set logscale cb\n" : "", num(axis.lowest), num(cb_top),
+      fmt::format("{}{}", log_colour ? ", log colour scale" : "", axis.band() ? "; red: fell" : ""), s.name,
       axis.band() ? "; red: fell (on the cost axis at the top, not to scale)" : "", n + 1);
   for (std::size_t j = 0; j < n; ++j) f.body += fmt::format("'{}' {}, ", dims[j].name, j + 1);
   f.body += fmt::format("'cost J' {})\n", n + 1);
