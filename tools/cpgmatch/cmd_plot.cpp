@@ -1,4 +1,6 @@
-// `cpgmatch plot --store PATH [--study ID] [--out DIR]`: Fig. 5a, 5b and 6 of a stored study;
+// `cpgmatch plot --store PATH [--study ID] [--out DIR]`: Fig. 5a, 5b and 6 of a stored study and its
+// parameter figures (slices with the GP's partial dependence, importance, parallel coordinates); what the
+// study's data cannot give is said on stderr and the rest drawn (exit 0);
 // `cpgmatch plot --trace FILE.csv [--out DIR]`: Fig. 4 from a rollout trace (`cpgmatch rollout --trace`).
 #include <filesystem>
 
@@ -23,8 +25,8 @@ void add_plot_command(CLI::App& app) {
     double window_s = 4.0;
   };
   auto opts = std::make_shared<Options>();
-  CLI::App* cmd = app.add_subcommand("plot", "the paper's figures (PNG and SVG) from a stored study or a rollout trace");
-  cmd->add_option("--store", opts->store, "SQLite study store: Fig. 5a, 5b, 6");
+  CLI::App* cmd = app.add_subcommand("plot", "the paper's figures and the parameter figures (PNG and SVG) from a stored study, or Fig. 4 from a rollout trace");
+  cmd->add_option("--store", opts->store, "SQLite study store: Fig. 5a, 5b, 6, param_slices, param_importance, param_parallel");
   cmd->add_option("--study", opts->study, "study id (default: the last study in the store)");
   cmd->add_option("--trace", opts->trace, "rollout trace CSV (cpgmatch rollout --trace F.csv): Fig. 4");
   cmd->add_option("--window", opts->window_s, "Fig. 4: the last this many seconds of the trace");

@@ -57,7 +57,7 @@ ExportedStudy export_study(const study::StoredStudy& stored) {
   s.message = stored.message;
   s.created_at_s = stored.created_at_s;
   s.spec_sha256 = stored.spec.sha256;
-  for (const auto& d : cfg.space.dimensions()) s.parameters.push_back({d.name, d.low, d.high, d.log_scale, d.unit});
+  s.parameters = cfg.space.dimensions();
   s.fixed = cfg.space.fixed();
   for (const auto& t : stored.trials) {
     ExportedTrial row;
@@ -140,21 +140,19 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
   if (columns.empty()) {  // no trial at all: still a header a reader understands
     columns = {"study_id", "study_name", "trial_id", "rollout", "state", "cost"};
   }
-  std::string line;
-  for (const auto& c : columns) line += (line.empty() ? "" : ",") + c;
-  for (const auto& p : params) line += ",params_" + p;
-  out << line << '\n';
+  for (std::size_t i = 0; i < columns.size(); ++i) out << (i ? "," : "") << columns[i];
+  for (const auto& p : params) out << ",params_" << p;
+  out << '\n';
   for (const auto& s : studies) {
     for (const auto& t : s.trials) {
-      line.clear();
       for (std::size_t i = 0; i < columns.size(); ++i) {
-        line += (i ? "," : "") + (t.columns.contains(columns[i]) ? csv_cell(t.columns[columns[i]]) : std::string());
+        out << (i ? "," : "") << (t.columns.contains(columns[i]) ? csv_cell(t.columns[columns[i]]) : std::string());
       }
       for (const auto& p : params) {
         const auto it = t.params.find(p);
-        line += "," + (it == t.params.end() ? std::string() : csv_cell(Json(it->second)));
+        out << ',' << (it == t.params.end() ? std::string() : csv_cell(Json(it->second)));
       }
-      out << line << '\n';
+      out << '\n';
     }
   }
 }

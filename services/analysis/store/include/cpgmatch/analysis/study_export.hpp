@@ -11,17 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/bo/search_space.hpp"
 #include "cpgmatch/study/study_store.hpp"
 
 namespace cpgmatch::analysis {
-
-struct ExportedParameter {
-  std::string name;
-  double low = 0.0;
-  double high = 1.0;
-  bool log_scale = false;
-  std::string unit;
-};
 
 struct ExportedTrial {
   // Every column but the parameters, in the order the CSV writes them (nlohmann::ordered_json keeps it):
@@ -44,7 +37,7 @@ struct ExportedStudy {
   std::string message;
   double created_at_s = 0.0;
   std::string spec_sha256;
-  std::vector<ExportedParameter> parameters;  // the search space, in its order
+  std::vector<bo::Dimension> parameters;      // the search space, in its order
   std::map<std::string, double> fixed;        // parameters held fixed by the study
   std::vector<ExportedTrial> trials;          // by trial_id: every trial the store holds (done and in flight)
 };
