@@ -19,6 +19,9 @@ PACKAGES=(
   libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libsqlite3-dev sqlite3
   # tests, benchmarks, plots
   libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox time python3
+  # `cpgmatch export --format optuna-journal` is tested by loading the journal in Optuna (3.1 in Debian 12)
+  # and drawing its plots (plotly)
+  python3-optuna python3-plotly
   # installation and packaging: man pages from --help, the .deb's dependencies (dpkg-shlibdeps),
   # network namespaces for the cluster test
   help2man dpkg-dev iproute2

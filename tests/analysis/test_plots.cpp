@@ -1,8 +1,12 @@
 // The figures are real files: PNGs with the PNG signature, SVGs with drawn data.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -39,6 +43,7 @@ StudyTrials synthetic_study(int seed) {
   StudyTrials s;
   s.name = "synthetic";
   s.initial_points = 5;
+  s.bounds = {{"hip_offset", {-0.3, 0.3}}, {"overswing", {0.0, 0.5}}};
   for (int i = 0; i < 30; ++i) {
     Trial t;
     t.trial_id = i;
@@ -49,6 +54,8 @@ StudyTrials synthetic_study(int seed) {
     t.mean_speed_mps = 0.1 + 0.01 * i;
     t.normalized_torque = 1.0 + 2.0 / (i + 1);
     t.summed_torque_nm = t.normalized_torque * t.mean_speed_mps;
+    t.params = {{"hip_offset", -0.3 + 0.02 * i}, {"overswing", 0.5 * std::abs(std::sin(3.0 * i + seed))}};
+    if (t.fell) t.cost += 14.0;  // a fall costs 13-19 in a study, a walking gait 0.4-6
     s.trials.push_back(t);
   }
   return s;
@@ -67,38 +74,60 @@ class Plots : public ::testing::Test {
 };
 
 TEST_F(Plots, StudyFigures) {
-  const auto files = plot_study(synthetic_study(0), dir_);
-  EXPECT_EQ(files.size(), 6u);
-  for (const char* stem : {"fig5a", "fig5b", "fig6"}) expect_figure(dir_, stem);
+  const FigureReport report = plot_study(synthetic_study(0), dir_);
+  EXPECT_EQ(report.files.size(), 12u);
+  EXPECT_TRUE(report.failed.empty()) << report.failed.front();
+  EXPECT_TRUE(report.not_drawn.empty()) << report.not_drawn.front();
+  for (const char* stem : {"fig5a", "fig5b", "fig6", "param_slices", "param_importance", "param_parallel"}) {
+    expect_figure(dir_, stem);
+  }
 }
 
-TEST_F(Plots, TraceFigure) {
-  fs::create_directories(dir_);
-  const fs::path csv = dir_ / "trace.csv";
-  {
-    std::ofstream out(csv);
-    out << "time_s,x_m";
-    for (const char* leg : {"FL", "FR", "HL", "HR"}) {
-      for (const char* q : {"_phase", "_hip_target_rad", "_hip_rad", "_knee_target_rad", "_knee_rad", "_contact", "_ltd",
-                            "_etd", "_eto", "_lto"}) {
-        out << ',' << leg << q;
-      }
-    }
-    out << '\n';
-    for (int k = 0; k < 3000; ++k) {
-      const double t = 0.002 * k, phase = std::fmod(6.2831853 * t, 6.2831853);
-      out << t << ',' << 0.3 * t;
-      for (int leg = 0; leg < 4; ++leg) {
-        const bool stance = std::sin(6.2831853 * t + leg) > 0;
-        out << ',' << phase << ',' << 0.2 * std::sin(phase) << ',' << 0.19 * std::sin(phase) << ',' << 0.5 << ',' << 0.48
-            << ',' << stance << ',' << (k % 200 < 20) << ',' << (k % 300 < 10) << ',' << (k % 250 < 30) << ',' << 0;
-      }
-      out << '\n';
+// A rollout trace as `cpgmatch rollout --trace` writes it, 6 s at 500 Hz and 1 Hz, each leg's phase (cycles,
+// 0..1) offset by its entry of `offsets` (FL, FR, HL, HR).
+void write_trace(const fs::path& csv, const std::array<double, 4>& offsets) {
+  std::ofstream out(csv);
+  out << "time_s,x_m";
+  for (const char* leg : {"FL", "FR", "HL", "HR"}) {
+    for (const char* q : {"_phase", "_hip_target_rad", "_hip_rad", "_knee_target_rad", "_knee_rad", "_contact", "_ltd",
+                          "_etd", "_eto", "_lto"}) {
+      out << ',' << leg << q;
     }
   }
-  const auto files = plot_trace(csv, dir_, 4.0);
+  out << '\n';
+  for (int k = 0; k < 3000; ++k) {
+    const double t = 0.002 * k;
+    out << t << ',' << 0.3 * t;
+    for (int leg = 0; leg < 4; ++leg) {
+      const double phase = std::fmod(t + offsets[static_cast<std::size_t>(leg)], 1.0);
+      const bool stance = phase < 0.6;
+      out << ',' << phase << ',' << 0.2 * std::sin(6.2831853 * phase) << ',' << 0.19 * std::sin(6.2831853 * phase) << ','
+          << 0.5 << ',' << 0.48 << ',' << stance << ',' << (k % 200 < 20) << ',' << (k % 300 < 10) << ',' << (k % 250 < 30)
+          << ',' << 0;
+    }
+    out << '\n';
+  }
+}
+
+TEST_F(Plots, TraceFigureOfATrotDrawsEveryLegAndNamesThePairsInPhase) {
+  fs::create_directories(dir_);
+  write_trace(dir_ / "trot.csv", {0.0, 0.5, 0.5, 0.0});  // FL with HR, FR with HL
+  const auto files = plot_trace(dir_ / "trot.csv", dir_, 4.0);
   EXPECT_EQ(files.size(), 2u);
   expect_figure(dir_, "fig4");
+  // Each leg's phase in a row of its own: one shared axis drew FL under HR and FR under HL.
+  const std::string script = read(dir_ / "fig4.gp");
+  for (const char* row : {"u 1:(3+0.8*", "u 1:(2+0.8*", "u 1:(1+0.8*", "u 1:(0+0.8*"}) {
+    EXPECT_NE(script.find(row), std::string::npos) << row;
+  }
+  EXPECT_NE(script.find("in phase: FL = HR, FR = HL"), std::string::npos);
+}
+
+TEST_F(Plots, TraceFigureOfAWalkNamesNoPair) {
+  fs::create_directories(dir_);
+  write_trace(dir_ / "walk.csv", {0.0, 0.5, 0.25, 0.75});
+  plot_trace(dir_ / "walk.csv", dir_, 4.0);
+  EXPECT_NE(read(dir_ / "fig4.gp").find("no two legs in phase"), std::string::npos);
 }
 
 TEST_F(Plots, TraceWithoutTheColumnsIsAClearError) {
@@ -110,6 +139,107 @@ TEST_F(Plots, TraceWithoutTheColumnsIsAClearError) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("FL_phase"), std::string::npos) << e.what();
   }
+}
+
+// The number after each occurrence of `key` in text (e.g. the upper ends of "set yrange [lo:hi]").
+std::vector<std::string> after_each(const std::string& text, const std::string& key) {
+  std::vector<std::string> out;
+  for (std::size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + 1)) {
+    const std::size_t start = at + key.size();
+    out.push_back(text.substr(start, text.find_first_of("]\n,", start) - start));
+  }
+  return out;
+}
+
+bool mentions(const std::vector<std::string>& lines, const std::string& what) {
+  for (const auto& l : lines) {
+    if (l.find(what) != std::string::npos) return true;
+  }
+  return false;
+}
+
+TEST_F(Plots, Fig6DrawsEveryFallInsideItsXRange) {
+  StudyTrials s = synthetic_study(0);
+  const int falls = static_cast<int>(std::count_if(s.trials.begin(), s.trials.end(), [](const Trial& t) { return t.fell; }));
+  ASSERT_GE(falls, 3);
+  plot_study(s, dir_);
+  const std::string script = read(dir_ / "fig6.gp");
+  // Falls cost the most: they are the last ranks, and each shaded bar must end inside the axis.
+  const auto ranges = after_each(script, "set xrange [0.5:");
+  ASSERT_FALSE(ranges.empty());
+  const double x_end = std::stod(ranges.front());
+  EXPECT_DOUBLE_EQ(x_end, 30.5);  // every one of the 30 rollouts ran
+  const auto bars = after_each(script, " to ");
+  int inside = 0;
+  for (const auto& b : bars) {
+    if (b.find("graph 1") == std::string::npos && std::stod(b) <= x_end) ++inside;
+  }
+  EXPECT_EQ(inside, 2 * falls) << "each fall's bar, drawn into the PNG and the SVG, ends inside the x-range";
+}
+
+TEST_F(Plots, Fig5aDrawsFallsInABandAboveTheWalkingCosts) {
+  StudyTrials s = synthetic_study(0);
+  double lowest_fall = 1e9, highest_walk = 0.0;
+  for (const auto& t : s.trials) {
+    if (t.fell) lowest_fall = std::min(lowest_fall, t.cost);
+    else highest_walk = std::max(highest_walk, t.cost);
+  }
+  plot_study(s, dir_);
+  const std::string script = read(dir_ / "fig5a.gp");
+  // Two panels per rendering (PNG, SVG): the fall band's range, then the walking costs' range.
+  const auto tops = after_each(script, "set yrange [");
+  ASSERT_EQ(tops.size(), 4u) << script;
+  const double walk_top = std::stod(tops[1].substr(tops[1].find(':') + 1));
+  const double band_bottom = std::stod(tops[0].substr(0, tops[0].find(':')));
+  EXPECT_GT(walk_top, highest_walk);
+  EXPECT_LT(walk_top, lowest_fall) << "the walking panel must not stretch to the falls";
+  EXPECT_LT(band_bottom, lowest_fall);
+}
+
+TEST_F(Plots, Fig5bKeepsFallMarkersOffTheTermsAndTheFloor) {
+  plot_study(synthetic_study(0), dir_);
+  const std::string script = read(dir_ / "fig5b.gp");
+  const std::string png_part = script.substr(0, script.find("set terminal svg"));
+  const auto plots = after_each(png_part, "\nplot ");
+  ASSERT_EQ(plots.size(), 3u) << "a fall strip, the log panel, the strip below its floor";
+  EXPECT_TRUE(mentions({plots[0]}, "$4==1")) << "the first strip marks the falls";
+  const std::string log_panel = png_part.substr(png_part.find("set logscale y"));
+  const std::string log_plot = log_panel.substr(log_panel.find("plot "), log_panel.find('\n', log_panel.find("plot ")) - log_panel.find("plot "));
+  EXPECT_EQ(log_plot.find("$4"), std::string::npos) << "no fall marker on the log axis: " << log_plot;
+  EXPECT_NE(log_plot.find(">=0.001"), std::string::npos) << "only terms at or above the floor on the log axis";
+  EXPECT_EQ(script.find("set datafile missing"), std::string::npos) << "lines must break where a term left the axis";
+}
+
+TEST_F(Plots, AStudyWithoutPositiveTorqueDrawsTheRestAndSaysWhatItCannot) {
+  StudyTrials s = synthetic_study(1);
+  for (auto& t : s.trials) t.normalized_torque = 0.0;  // fake rollouts measure no torque
+  const FigureReport report = plot_study(s, dir_);
+  EXPECT_TRUE(report.failed.empty()) << report.failed.front();
+  EXPECT_TRUE(mentions(report.not_drawn, "fig6: none of the")) << "it says why the torque axis is empty";
+  for (const char* stem : {"fig5a", "fig5b", "fig6", "param_slices", "param_parallel"}) {
+    EXPECT_TRUE(fs::exists(dir_ / (std::string(stem) + ".png"))) << stem;
+  }
+  EXPECT_EQ(read(dir_ / "fig6.gp").find("set logscale y"), std::string::npos) << "no log axis without a positive value";
+}
+
+TEST_F(Plots, AStudyWhereNothingRanIsAllReasonsAndNoFailure) {
+  StudyTrials s = synthetic_study(0);
+  for (auto& t : s.trials) t.ok = false;
+  const FigureReport report = plot_study(s, dir_);
+  EXPECT_TRUE(report.files.empty());
+  EXPECT_TRUE(report.failed.empty());
+  EXPECT_EQ(report.not_drawn.size(), 6u);
+  EXPECT_TRUE(mentions(report.not_drawn, "fig5a: no rollout ran"));
+}
+
+TEST_F(Plots, AStudyWhereEveryRolloutFellStillDrawsItsCostsAndTerms) {
+  StudyTrials s = synthetic_study(0);
+  for (auto& t : s.trials) t.fell = true;
+  const FigureReport report = plot_study(s, dir_);
+  EXPECT_TRUE(report.failed.empty()) << report.failed.front();
+  expect_figure(dir_, "fig5a");
+  expect_figure(dir_, "fig5b");
+  EXPECT_TRUE(mentions(report.not_drawn, "fig6: none of the 0 rollouts that walked"));
 }
 
 TEST_F(Plots, ReplicateFigures) {

@@ -22,6 +22,7 @@ templates = {
     "analyze": ["--store", "--study", "--jitter"],
     "optimize": ["--budget", "--initial", "--seed", "--batch", "--timeout", "--acq", "--design", "--liar", "--cost-transform"],
     "reproduce": ["--seeds", "--first-seed", "--workers", "--jitter"],
+    "export": ["--store", "--study", "--format"],  # no --out: a generated run never writes a file
 }
 bad = 0
 

@@ -17,6 +17,11 @@ expect_exit() {  # expect_exit CODE PATTERN CMD...: exit code and a stderr patte
 }
 
 # Bad input: exit 2 and a message naming the field (and file:line for YAML).
+check "did you mean status" expect_exit 2 "unknown command 'statsu'; did you mean 'cpgmatch status'?" "$bin" statsu
+check "did you mean study submit" expect_exit 2 "did you mean 'cpgmatch study submit'?" "$bin" study sumbit --config x.yaml
+check "an unrelated word lists the commands" expect_exit 2 "its commands are: .*export" "$bin" frobnicate
+"$bin" rollout --help >"$tmp/rollout-help.txt"
+check "rollout --help lists every terrain" sh -c "for t in flat step:HEIGHT@DISTANCE rough:AMPLITUDE shift:HEIGHT@TIME; do grep -q \"\$t\" '$tmp/rollout-help.txt' || exit 1; done"
 check "unknown parameter" expect_exit 2 "hip_ofset" "$bin" rollout --set hip_ofset=0.1
 check "out of range" expect_exit 2 "duty_factor_front" "$bin" rollout --set duty_factor_front=0.95
 check "nan value" expect_exit 2 "finite" "$bin" rollout --set overswing=nan
@@ -171,6 +176,17 @@ check "study run bad workers" expect_exit 2 "\-\-workers" "$bin" study run --wor
 check "reproduce bad jitter" expect_exit 2 "\-\-jitter" "$bin" reproduce --jitter -1
 check "analyze bad jitter" expect_exit 2 "\-\-jitter" "$bin" analyze --store "$tmp/tiny/study.db" --jitter -1
 check "plot needs one source" expect_exit 2 "\-\-store" "$bin" plot
+# export: one row per stored trial; bad input names the flag.
+"$bin" export --store "$tmp/tiny/study.db" --format csv >"$tmp/tiny.csv" 2>/dev/null
+check "export csv: a header and one row per trial" test "$(wc -l <"$tmp/tiny.csv")" -eq 7
+check "export csv columns" sh -c "head -1 '$tmp/tiny.csv' | grep -q 'cost,J_feedback,J_distance,J_pitch,J_contact,J_periodicity,feedback_late_touchdown'"
+"$bin" export --store "$tmp/tiny/study.db" --study 1 --format json --out "$tmp/tiny-export.json" 2>/dev/null
+check "export json" python3 -c "
+import json; j=json.load(open('$tmp/tiny-export.json')); t=j['studies'][0]['trials']
+assert len(t)==6 and all(set(r['params'])=={'hip_offset','hip_amplitude','duty_factor_front','duty_factor_hind','knee_phase_shift','overswing'} for r in t)"
+check "export bad format" expect_exit 2 "\-\-format" "$bin" export --store "$tmp/tiny/study.db" --format xlsx
+check "export missing store" expect_exit 2 "\-\-store" "$bin" export --store "$tmp/nope.db" --format csv
+check "export unknown study" expect_exit 2 "\-\-study 999" "$bin" export --store "$tmp/tiny/study.db" --study 999 --format csv
 check "plot unknown study" expect_exit 2 "\-\-study 999" "$bin" plot --store "$tmp/tiny/study.db" --study 999
 check "plot not a trace" expect_exit 2 "\-\-trace" "$bin" plot --trace "$tmp/tiny/trials.jsonl"
 check "reproduce bad seeds" expect_exit 2 "\-\-seeds" "$bin" reproduce --seeds 0

@@ -24,6 +24,17 @@ for f in usr/bin/cpgmatch usr/bin/cpgmatch-optimizer usr/bin/cpgmatch-sim-worker
          usr/lib/systemd/system/cpgmatch-robot-agent.service; do
   [[ -e $WORK/root/$f ]] || fail "not in the package: /$f"
 done
+# Debian's licence file, the citation, the DDS contract and every Fast DDS profile the source tree has.
+SRC=$(cd "$(dirname "$0")/../.." && pwd)
+for f in usr/share/doc/cpgmatch/copyright usr/share/doc/cpgmatch/CITATION.cff usr/share/cpgmatch/idl/cpgmatch_msgs.idl; do
+  [[ -s $WORK/root/$f ]] || fail "not in the package: /$f"
+done
+for profile in "$SRC"/deploy/fastdds/*.xml; do
+  [[ -s $WORK/root/usr/share/cpgmatch/fastdds/$(basename "$profile") ]] || fail "Fast DDS profile not in the package: $(basename "$profile")"
+done
+head -1 "$WORK/root/usr/share/doc/cpgmatch/copyright" | grep -q '^Format: https://www.debian.org/doc/packaging-manuals/copyright-format/1.0/' ||
+  fail "/usr/share/doc/cpgmatch/copyright is not in Debian's machine-readable format"
+grep -q '^License: MIT' "$WORK/root/usr/share/doc/cpgmatch/copyright" || fail "copyright names no licence"
 grep -q '^ExecStart=/usr/bin/cpgmatch-optimizer ' "$WORK/root/usr/lib/systemd/system/cpgmatch-optimizer.service" ||
   fail "the packaged optimizer unit does not start /usr/bin/cpgmatch-optimizer"
 apt-get install -s "$deb" >"$WORK/apt.log" 2>&1 || { cat "$WORK/apt.log"; fail "apt cannot resolve the package's dependencies"; }

@@ -18,7 +18,8 @@ EXES=(cpgmatch cpgmatch-optimizer cpgmatch-sim-worker cpgmatch-robot-agent cpgma
 for f in "${EXES[@]/#/bin/}" share/cpgmatch/configs/robot/morti.yaml \
          share/cpgmatch/configs/model/morti.yaml share/cpgmatch/configs/rollout.yaml \
          share/cpgmatch/configs/params/default.yaml share/cpgmatch/configs/spaces/paper.yaml \
-         share/cpgmatch/fastdds/local.xml share/cpgmatch/fastdds/cluster.xml \
+         share/cpgmatch/fastdds/local.xml share/cpgmatch/fastdds/cluster.xml share/cpgmatch/fastdds/udp-only.xml \
+         share/cpgmatch/idl/cpgmatch_msgs.idl share/doc/cpgmatch/copyright share/doc/cpgmatch/CITATION.cff \
          lib/systemd/system/cpgmatch-optimizer.service lib/systemd/system/cpgmatch-sim-worker@.service \
          lib/systemd/system/cpgmatch-discovery.service; do
   [[ -e $PREFIX/$f ]] || fail "not installed: $f"

@@ -38,7 +38,7 @@ void add_optimize_command(CLI::App& app) {
   cmd->add_option("--objective-cmd", opts->objective_cmd, "shell command: point as JSON on stdin, cost on the last stdout line");
   cmd->add_option("--objective", opts->objective, "built-in objective: rollout");
   cmd->add_option("--timeout", opts->timeout_s, "seconds before an evaluation is killed and counted as failed");
-  cmd->add_option("--terrain", opts->terrain, "terrain for --objective rollout");
+  cmd->add_option("--terrain", opts->terrain, fmt::format("terrain for --objective rollout: {}", sim::TerrainSpec::syntax()));
   opts->flags.add_to(cmd);
   cmd->callback([opts] {
     const auto options = opts->flags.to_options();

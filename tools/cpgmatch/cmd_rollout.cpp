@@ -62,7 +62,7 @@ void add_rollout_command(CLI::App& app) {
   cmd->add_option("--set", opts->assignments, "override one parameter, name=value (repeatable)");
   cmd->add_option("--settings", opts->settings_file, "rollout settings YAML (default: configs/rollout.yaml)");
   cmd->add_option("--model", opts->model_file, "robot model YAML (default: configs/model/morti.yaml)");
-  cmd->add_option("--terrain", opts->terrain, "flat | step:HEIGHT@DISTANCE | rough:AMPLITUDE (metres)");
+  cmd->add_option("--terrain", opts->terrain, sim::TerrainSpec::syntax());
   cmd->add_option("--seed", opts->seed, "seed for terrain roughness and sensor noise")->check(whole_non_negative());
   cmd->add_flag("--no-feedback", opts->no_feedback, "switch off all feedback mechanisms (ablation)");
   cmd->add_option("--disable", opts->disable, "switch off one mechanism: ltd, etd, eto (repeatable)");

@@ -24,6 +24,8 @@ void add_service_commands(CLI::App& app);
 void add_analyze_command(CLI::App& app);
 void add_plot_command(CLI::App& app);
 void add_reproduce_command(CLI::App& app);
+// A stored study's trials as CSV, JSON or an Optuna journal.
+void add_export_command(CLI::App& app);
 // Simulation versus hardware rollouts of a stored (mixed) study.
 void add_sim2real_command(CLI::App& app);
 // An emergency stop (latched) or its release for robot agents, over DDS.

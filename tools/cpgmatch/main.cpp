@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.hpp"
+#include "did_you_mean.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 
@@ -19,6 +20,7 @@ int main(int argc, char** argv) {
   cpgmatch::cli::add_service_commands(app);
   cpgmatch::cli::add_analyze_command(app);
   cpgmatch::cli::add_plot_command(app);
+  cpgmatch::cli::add_export_command(app);
   cpgmatch::cli::add_reproduce_command(app);
   cpgmatch::cli::add_sim2real_command(app);
   cpgmatch::cli::add_estop_command(app);
@@ -26,6 +28,12 @@ int main(int argc, char** argv) {
     cpgmatch::runtime::export_config_dir();  // before parsing: subcommands run inside parse()
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() != 0) {
+      if (const auto hint = cpgmatch::cli::unknown_command_hint(app, argc, argv)) {
+        std::cerr << "error: " << *hint << "\nRun with --help for more information." << std::endl;
+        return cpgmatch::kExitBadInput;
+      }
+    }
     const int code = app.exit(e);
     return code == 0 ? 0 : cpgmatch::kExitBadInput;
   } catch (const cpgmatch::InputError& e) {

@@ -86,10 +86,18 @@ StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_
   return a;
 }
 
+void print_figure_report(const analysis::FigureReport& report) {
+  for (const auto& why : report.not_drawn) fmt::print(stderr, "not drawn: {}\n", why);
+  for (const auto& error : report.failed) fmt::print(stderr, "figure failed: {}\n", error);
+}
+
 bool write_study_figures(const fs::path& dir, const StudyAnalysis& a, bool trace_best, bool quiet) {
   bool ok = true;
   try {
-    analysis::plot_study(a.trials, dir);
+    const analysis::FigureReport report = analysis::plot_study(a.trials, dir);
+    if (!quiet) print_figure_report(report);
+    ok = report.failed.empty();
+    if (quiet) for (const auto& error : report.failed) fmt::print(stderr, "figure failed: {}\n", error);
   } catch (const std::exception& e) {
     fmt::print(stderr, "figures: {}\n", e.what());
     ok = false;

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cpgmatch/analysis/jitter.hpp"
+#include "cpgmatch/analysis/plots.hpp"
 #include "cpgmatch/analysis/science_report.hpp"
 #include "cpgmatch/analysis/trial.hpp"
 #include "cpgmatch/study/study_config.hpp"
@@ -40,7 +41,10 @@ struct StudyAnalysis {
 // times under ±1% jitter (progress on stderr unless quiet).
 StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_draws, bool quiet);
 
-// fig5a/fig5b/fig6 into dir; with `trace_best`, also one traced rollout of the best parameters
+// On stderr: what a set of figures could not draw ("not drawn: ...") and gnuplot's failures.
+void print_figure_report(const analysis::FigureReport& report);
+
+// fig5a/fig5b/fig6 and the parameter figures into dir; with `trace_best`, also one traced rollout of the best parameters
 // (best_trace.csv) and fig4 from it. Figure failures are reported on stderr and returned as false:
 // the study's numbers are still good without them.
 bool write_study_figures(const std::filesystem::path& dir, const StudyAnalysis& a, bool trace_best, bool quiet);

@@ -1,5 +1,6 @@
 #include "cpgmatch/analysis/gnuplot.hpp"
 
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -11,6 +12,8 @@ namespace cpgmatch::analysis {
 namespace fs = std::filesystem;
 
 bool gnuplot_available() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
+
+std::string gnuplot_number(double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : "NaN"; }
 
 std::string gnuplot_quote(const fs::path& p) {
   std::string out = "'";

@@ -96,6 +96,28 @@ std::string stance_objects(const Trace& t, std::size_t col) {
   return out;
 }
 
+// In words, which legs move together (phases equal within 2% of a cycle in every sample shown): what the
+// phase rows show side by side.
+template <typename Column>
+std::string phase_pairs(const Trace& t, Column col) {
+  std::vector<std::string> pairs;
+  for (std::size_t a = 0; a < kLegs.size(); ++a) {
+    for (std::size_t b = a + 1; b < kLegs.size(); ++b) {
+      const int ca = col(kLegs[a] + "_phase") - 1, cb = col(kLegs[b] + "_phase") - 1;
+      bool together = true;
+      for (const auto& r : t.rows) {
+        const double diff = std::abs(std::remainder(r[static_cast<std::size_t>(ca)] - r[static_cast<std::size_t>(cb)], 1.0));
+        together &= diff < 0.02;
+      }
+      if (together) pairs.push_back(kLegs[a] + " = " + kLegs[b]);
+    }
+  }
+  if (pairs.empty()) return "no two legs in phase";
+  std::string out = "in phase: ";
+  for (std::size_t i = 0; i < pairs.size(); ++i) out += (i ? ", " : "") + pairs[i];
+  return out;
+}
+
 }  // namespace
 
 FigureFiles plot_trace(const fs::path& trace_csv, const fs::path& out_dir, double window_s) {
@@ -119,13 +141,25 @@ FigureFiles plot_trace(const fs::path& trace_csv, const fs::path& out_dir, doubl
   const std::string d = gnuplot_quote(data);
   const std::string stance = stance_objects(t, static_cast<std::size_t>(col("FL_contact") - 1));
   const double shown_s = t.rows.back()[0] - t.rows.front()[0];  // the trace may be shorter than the window
-  std::string body = "set multiplot layout 4,1 title 'Fig. 4: CPG output and elastic feedback (last "
-                     + fmt::format("{:.1f}", shown_s) + " s of the rollout; grey: FL stance)'\n"
-                     "set grid\nset key outside right\nset lmargin 10\nset rmargin 24\n";
-  body += "set ylabel 'phase'\nplot ";
+  std::string body = fmt::format(
+      "set multiplot layout 4,1 title \"Fig. 4: CPG output and elastic feedback (last {:.1f} s of the rollout; grey: FL "
+      "stance)\\nphases: one row per leg ({})\"\n"
+      "set grid\nset key outside right\nset lmargin 10\nset rmargin 24\n",
+      shown_s, phase_pairs(t, col));
+  // Each leg's phase (0..1 per cycle) in a row of its own: in a trot FL moves with HR and FR with HL, and
+  // one shared axis drew each pair as a single line (the second hid the first in every sample).
+  body += "set ylabel 'phase (0-1 per cycle)'\nset yrange [-0.15:3.95]\nset ytics (";
   for (std::size_t i = 0; i < kLegs.size(); ++i) {
-    body += fmt::format("{}{} u 1:{} w l lw 1.5 t '{}'", i ? ", " : "", i ? "''" : d, col(kLegs[i] + "_phase"), kLegs[i]);
+    body += fmt::format("{}'{}' {}", i ? ", " : "", kLegs[i], kLegs.size() - 1 - i + 0.4);
   }
+  body += ")\nset key off\nset grid xtics\n";
+  body += "plot ";
+  for (std::size_t i = 0; i < kLegs.size(); ++i) {
+    const std::size_t row = kLegs.size() - 1 - i;
+    body += fmt::format("{}{} u 1:({}+0.8*${}) w l lw 1.5 lc {}", i ? ", " : "", i ? "''" : d, row, col(kLegs[i] + "_phase"),
+                        i + 1);
+  }
+  body += "\nset yrange [*:*]\nset ytics autofreq\nset grid xtics ytics\nset key outside right\n";
   body += "\n" + stance;
   body += fmt::format("set ylabel 'FL hip, rad'\nplot {} u 1:{} w l lw 1.5 dt 2 t 'target', '' u 1:{} w l lw 1.5 t 'measured'\n", d,
                       col("FL_hip_target_rad"), col("FL_hip_rad"));

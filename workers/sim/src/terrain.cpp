@@ -21,6 +21,12 @@ double parse_metres(const std::string& text, const std::string& whole, const cha
 
 }  // namespace
 
+const char* TerrainSpec::syntax() {
+  return "flat | step:HEIGHT@DISTANCE (a step up or down of HEIGHT m, within +-0.15, at DISTANCE m >= 0.35 ahead) | "
+         "rough:AMPLITUDE (random tiles of up to AMPLITUDE m, within [0, 0.1]) | shift:HEIGHT@TIME (the ground moves "
+         "HEIGHT m, within +-0.1, at TIME s)";
+}
+
 TerrainSpec TerrainSpec::parse(const std::string& text) {
   TerrainSpec t;
   if (text == "flat") return t;
@@ -60,7 +66,7 @@ TerrainSpec TerrainSpec::parse(const std::string& text) {
     if (t.shift_time_s < 0.0) throw InputError(fmt::format("--terrain '{}': shift time must be >= 0 s", text));
     return t;
   }
-  throw InputError(fmt::format("--terrain '{}': expected flat, step:HEIGHT@DISTANCE, rough:AMPLITUDE or shift:HEIGHT@TIME", text));
+  throw InputError(fmt::format("--terrain '{}': expected {}", text, syntax()));
 }
 
 std::string TerrainSpec::describe() const {

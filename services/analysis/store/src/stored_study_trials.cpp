@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "cpgmatch/bo/model_state_json.hpp"
 #include "cpgmatch/errors.hpp"
 
 namespace cpgmatch::analysis {
@@ -16,7 +17,22 @@ StudyTrials trials_from_stored_study(const study::StoredStudy& stored) {
   s.study_id = stored.study_id;
   s.initial_points = cfg.optimizer.initial_points;
   s.seed = cfg.optimizer.seed;
-  for (const auto& d : cfg.space.dimensions()) s.bounds[d.name] = {d.low, d.high};
+  for (const auto& d : cfg.space.dimensions()) {
+    s.bounds[d.name] = {d.low, d.high};
+    s.dimensions.push_back({d.name, d.low, d.high, d.log_scale});
+  }
+  s.log_cost = cfg.optimizer.cost_transform == bo::CostTransform::kLog;
+  if (!stored.model_state.is_null()) {
+    try {
+      const bo::ModelState m = bo::model_state_from_json(stored.model_state);
+      if (m.have_hyperparameters) {
+        s.model_hyperparameters.assign(m.hyperparameters.data(), m.hyperparameters.data() + m.hyperparameters.size());
+        s.model_observations = m.observations;
+      }
+    } catch (const std::exception&) {
+      // An unreadable saved state: the figures of the model refit it from the rollouts instead.
+    }
+  }
   std::vector<study::StoredTrial> done;
   for (const auto& t : stored.trials) {
     if (t.status == study::TrialStatus::kDone) done.push_back(t);

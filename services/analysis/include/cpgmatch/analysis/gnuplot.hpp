@@ -15,6 +15,9 @@ struct PlotError : std::runtime_error {
 };
 
 bool gnuplot_available();
+// A number for a gnuplot data file or script: 6 significant digits, NaN for a missing value (scripts
+// declare `set datafile missing 'NaN'`).
+std::string gnuplot_number(double v);
 // A gnuplot string literal for the path: single-quoted, with embedded quotes doubled.
 std::string gnuplot_quote(const std::filesystem::path& p);
 // Writes <dir>/<stem>.gp drawing `body` into <dir>/<stem>.png and <dir>/<stem>.svg and runs gnuplot.

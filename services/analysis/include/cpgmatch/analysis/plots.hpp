@@ -2,6 +2,7 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "cpgmatch/analysis/gnuplot.hpp"
@@ -12,10 +13,37 @@ namespace cpgmatch::analysis {
 
 using FigureFiles = std::vector<std::filesystem::path>;
 
-// Fig. 5a (current minimum of the cost over rollouts, falls marked), Fig. 5b (every cost term per
-// rollout) and Fig. 6 (normalised torque of non-fallen rollouts, sorted by cost, falls shaded):
-// fig5a/fig5b/fig6 .png/.svg in out_dir. Throws PlotError.
-FigureFiles plot_study(const StudyTrials& study, const std::filesystem::path& out_dir);
+// What drawing a set of figures came to. A study's data decides what can be drawn (no rollout that
+// walked, no positive torque for a log axis, no model yet): such a figure, or the part of it, is left out
+// and said in `not_drawn`, and the rest is drawn. `failed` is gnuplot failing on a script (a bug, not the
+// data): that figure is missing, the others are still drawn.
+struct FigureReport {
+  FigureFiles files;
+  std::vector<std::string> not_drawn;  // "fig6: ...", in plain words
+  std::vector<std::string> failed;     // PlotError messages (they name the script)
+};
+
+// A figure as a gnuplot body, or the reason it cannot be drawn from this data (`unavailable`), with notes
+// on what it leaves out.
+struct FigureScript {
+  explicit FigureScript(std::string stem_name) : stem(std::move(stem_name)) {}
+  std::string stem;
+  std::string body;
+  int width_px = 1000;
+  int height_px = 600;
+  std::string unavailable;          // non-empty: not drawn, and why
+  std::vector<std::string> notes;   // drawn, but without these
+};
+// Renders the script into `report` (files, or the reason, or gnuplot's failure).
+void draw_figure(const std::filesystem::path& dir, const FigureScript& figure, FigureReport& report);
+
+// Fig. 5a (cost per rollout and its current minimum; falls in a band of their own above, so that their
+// cost does not flatten the walking costs), Fig. 5b (every cost term per rollout, log scale; falls in a strip
+// above it, terms below the log axis' floor in a strip below it), Fig. 6 (normalised torque of the rollouts
+// that walked, sorted by cost, falls shaded), and the parameter figures (parameter_plots): fig5a, fig5b,
+// fig6, param_slices, param_importance, param_parallel (.png/.svg) in out_dir. Never throws for what the
+// data lacks; throws PlotError only when gnuplot is not installed.
+FigureReport plot_study(const StudyTrials& study, const std::filesystem::path& out_dir);
 
 // Fig. 4 from a rollout trace CSV (`cpgmatch rollout --trace`): the four legs' coupled phases, FL's hip
 // and knee trajectories with stance shaded, and the four feedback activities of FL and FR as bands,

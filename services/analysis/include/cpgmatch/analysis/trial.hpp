@@ -29,6 +29,7 @@ struct Trial {
   double distance_m = 0.0;
   std::map<std::string, double> params;  // every parameter of the rollout (optimised and fixed)
   bool hardware = false;           // run by a hardware worker (the report's worker_kind)
+  std::string outcome;             // the report's outcome (completed, fell, error, refused, ...); empty: an older store
 
   bool walked() const { return ok && !fell; }
 };
@@ -38,6 +39,14 @@ struct Bounds {
   double high = 0.0;
 };
 
+// A dimension of the search space as the optimizer sees it (its model works in the unit cube of these).
+struct SearchDimension {
+  std::string name;
+  double low = 0.0;
+  double high = 1.0;
+  bool log_scale = false;
+};
+
 struct StudyTrials {
   std::string name;
   int study_id = 0;
@@ -45,6 +54,14 @@ struct StudyTrials {
   std::uint64_t seed = 0;          // the study's seed (its rollouts' seed too)
   std::map<std::string, Bounds> bounds;  // the optimised parameters and their search ranges
   std::vector<Trial> trials;       // ordered by trial_id
+  // The optimizer's view, for the figures of its model (surrogate.hpp). Empty dimensions: the `bounds`,
+  // linear, in name order (a hand-made study).
+  std::vector<SearchDimension> dimensions;  // in the optimizer's order (its model's inputs)
+  bool log_cost = false;                    // the optimizer modelled log(cost) (cost_transform: log)
+  // GpHyperparameters::pack() of the optimizer's latest fit, as saved in the store ([log amplitude, log length
+  // scales in `dimensions` order, log noise]), and how many observations that fit saw; empty: none saved.
+  std::vector<double> model_hyperparameters;
+  int model_observations = 0;
 };
 
 // The trial's optimised parameters scaled to [0, 1] by their search ranges, in `bounds` order (the GP's

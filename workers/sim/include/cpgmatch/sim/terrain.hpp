@@ -24,6 +24,8 @@ struct TerrainSpec {
   // Parses "flat", "step:HEIGHT@DISTANCE", "rough:AMPLITUDE" (metres) or "shift:HEIGHT@TIME" (metres,
   // seconds). Throws InputError.
   static TerrainSpec parse(const std::string& text);
+  // Every terrain parse() accepts, with its units and limits: the one text help and errors show.
+  static const char* syntax();
   std::string describe() const;
 };
 

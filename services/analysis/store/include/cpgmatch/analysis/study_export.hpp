@@ -1,0 +1,54 @@
+// A stored study's trials as a table other tools read: one row per trial with its parameters, cost, every
+// cost term, the feedback per mechanism, torque, speed, whether it fell, its worker, where it came from and
+// how it ended. `cpgmatch export` writes it as CSV (pandas, a spreadsheet), JSON, or an Optuna journal
+// (optuna_journal.hpp). Read through the store's API; the store itself is not touched.
+#pragma once
+
+#include <map>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "cpgmatch/bo/search_space.hpp"
+#include "cpgmatch/study/study_store.hpp"
+
+namespace cpgmatch::analysis {
+
+struct ExportedTrial {
+  // Every column but the parameters, in the order the CSV writes them (nlohmann::ordered_json keeps it):
+  // study_id, trial_id (0-based, the store's), rollout (1-based, the report's), state (done | in_flight),
+  // phase, source (initial_design | model | validation), outcome, ok, fell, cost, J_* terms, feedback_*
+  // fractions, torque, speed, distance, fall time, worker, attempt, faults, issued_at/reported_at (Unix s).
+  nlohmann::ordered_json columns;
+  std::map<std::string, double> params;  // the optimised parameters (the fixed ones are the study's)
+  bool done = false;
+  bool ok = false;
+  double cost = 0.0;
+  double issued_at_s = 0.0;
+  double reported_at_s = 0.0;
+};
+
+struct ExportedStudy {
+  int study_id = 0;
+  std::string name;
+  std::string state;
+  std::string message;
+  double created_at_s = 0.0;
+  std::string spec_sha256;
+  std::vector<bo::Dimension> parameters;      // the search space, in its order
+  std::map<std::string, double> fixed;        // parameters held fixed by the study
+  std::vector<ExportedTrial> trials;          // by trial_id: every trial the store holds (done and in flight)
+};
+
+// Throws InputError for a study whose stored config cannot be read (it names the study).
+ExportedStudy export_study(const study::StoredStudy& stored);
+
+// CSV: a header, then one row per trial of every study; parameter columns are `params_<name>` (as Optuna's
+// trials_dataframe names them), empty where a study has no such parameter; missing numbers are empty.
+void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out);
+// JSON: {"studies": [{study fields, "parameters": [...], "fixed": {...}, "trials": [{columns..., "params": {...}}]}]}.
+nlohmann::ordered_json export_json(const std::vector<ExportedStudy>& studies);
+
+}  // namespace cpgmatch::analysis

@@ -1,0 +1,159 @@
+// `cpgmatch export` from a study store made through the store's API: one row per trial, whatever its state
+// (done, failed, fell, still in flight), in CSV, JSON and as an Optuna journal whose lines replay as Optuna
+// replays them. (tests/cli/test_export_optuna.sh loads a real study's journal in Optuna itself.)
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <sstream>
+
+#include "cpgmatch/analysis/optuna_journal.hpp"
+#include "cpgmatch/analysis/stored_study_trials.hpp"
+#include "cpgmatch/analysis/study_export.hpp"
+#include "cpgmatch/study/study_store.hpp"
+
+namespace cpgmatch::analysis {
+namespace {
+
+namespace fs = std::filesystem;
+
+nlohmann::json report(bool fell, double cost) {
+  return {{"ok", true},
+          {"outcome", fell ? "fell" : "completed"},
+          {"fell", fell},
+          {"worker_kind", "sim"},
+          {"cost", cost},
+          {"fall_time_s", fell ? 12.5 : -1.0},
+          {"normalized_torque", 30.0},
+          {"mean_speed_mps", 0.3},
+          {"feedback_fraction", {{"late_touchdown", 0.1}, {"early_touchdown", 0.2}, {"early_toeoff", 0.3}, {"late_toeoff", 0.4}}},
+          {"terms", {{"feedback", 0.2}, {"distance", 0.3}, {"pitch", 0.1}, {"contact", 0.0}, {"periodicity", 0.01}}}};
+}
+
+class ExportTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("export-" + std::to_string(getpid()));
+    fs::create_directories(dir_);
+    store_path_ = (dir_ / "s.db").string();
+    study::StudyStore store(store_path_);
+    // Two studies of the same name (Optuna needs unique names); the first with 5 trials: walked, fell,
+    // failed, walked, and one still in flight.
+    for (int k = 0; k < 2; ++k) {
+      const int id = store.create_study("gait", "name: gait\nbudget: 5\ninitial_points: 2\n", "s.yaml", 1.7e9 + k);
+      std::vector<study::StoredTrial> trials;
+      for (int i = 0; i < (k == 0 ? 5 : 1); ++i) {
+        study::StoredTrial t;
+        t.trial_id = i;
+        t.x = Eigen::VectorXd::Constant(6, 0.1 + 0.05 * i);
+        t.x[1] = 0.5;
+        t.worker_id = "node-" + std::to_string(i);
+        t.issued_at_s = 1.7e9 + 10 * i;
+        trials.push_back(t);
+      }
+      store.add_trials(id, trials);
+      if (k == 1) continue;
+      store.complete_trial(id, 0, true, 2.5, report(false, 2.5), 1.7e9 + 5);
+      store.complete_trial(id, 1, true, 17.0, report(true, 17.0), 1.7e9 + 15);
+      store.complete_trial(id, 2, false, 0.0, {{"ok", false}, {"outcome", "error"}, {"error", "rollout crashed, \"badly\""}},
+                           1.7e9 + 25);
+      store.complete_trial(id, 3, true, 0.9, report(false, 0.9), 1.7e9 + 35);
+    }
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::vector<ExportedStudy> all() const {
+    std::vector<ExportedStudy> out;
+    for (const auto& s : study::StudyStore(store_path_).load_all()) out.push_back(export_study(s));
+    return out;
+  }
+  fs::path dir_;
+  std::string store_path_;
+};
+
+TEST_F(ExportTest, OneRowPerStoredTrialWithHowItEnded) {
+  const auto studies = all();
+  ASSERT_EQ(studies.size(), 2u);
+  const ExportedStudy& s = studies[0];
+  ASSERT_EQ(s.trials.size(), 5u);
+  ASSERT_EQ(s.parameters.size(), 6u);  // the paper's space: no parameters in the study file
+  const auto& c = s.trials;
+  EXPECT_EQ(c[0].columns["source"], "initial_design");
+  EXPECT_EQ(c[2].columns["source"], "model");
+  EXPECT_EQ(c[0].columns["outcome"], "completed");
+  EXPECT_EQ(c[1].columns["outcome"], "fell");
+  EXPECT_EQ(c[1].columns["fell"], true);
+  EXPECT_EQ(c[1].columns["fall_time_s"], 12.5);
+  EXPECT_TRUE(c[0].columns["fall_time_s"].is_null()) << "a rollout that walked has no fall time";
+  EXPECT_EQ(c[2].columns["outcome"], "error");
+  EXPECT_EQ(c[2].columns["ok"], false);
+  EXPECT_TRUE(c[2].columns["cost"].is_null());
+  EXPECT_EQ(c[4].columns["state"], "in_flight");
+  EXPECT_EQ(c[4].columns["outcome"], "");
+  EXPECT_EQ(c[3].columns["J_feedback"], 0.2);
+  EXPECT_EQ(c[3].columns["feedback_early_toeoff"], 0.3);
+  EXPECT_EQ(c[3].columns["worker_id"], "node-3");
+  EXPECT_DOUBLE_EQ(c[3].params.at("hip_amplitude"), 0.5);
+}
+
+TEST_F(ExportTest, CsvHasAHeaderAndOneLinePerTrialWithQuotedText) {
+  std::ostringstream out;
+  write_csv(all(), out);
+  std::vector<std::string> lines;
+  std::istringstream in(out.str());
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  ASSERT_EQ(lines.size(), 1u + 5u + 1u);
+  EXPECT_EQ(lines[0].rfind("study_id,study_name,trial_id,rollout,state,", 0), 0u) << lines[0];
+  EXPECT_NE(lines[0].find(",params_hip_offset,"), std::string::npos);
+  EXPECT_NE(lines[3].find("\"rollout crashed, \"\"badly\"\"\""), std::string::npos) << lines[3];
+  EXPECT_NE(lines[1].find(",2.5,"), std::string::npos) << lines[1];
+}
+
+TEST_F(ExportTest, OptunaJournalReplaysToTheStoredTrials) {
+  std::ostringstream out;
+  const auto names = write_optuna_journal(all(), out);
+  ASSERT_EQ(names.size(), 2u);
+  EXPECT_EQ(names[0], "gait (study 1)");
+  EXPECT_EQ(names[1], "gait (study 2)");
+  std::istringstream in(out.str());
+  int studies = 0;
+  std::vector<nlohmann::json> trials;
+  for (std::string l; std::getline(in, l);) {
+    const auto j = nlohmann::json::parse(l);
+    ASSERT_TRUE(j.contains("worker_id"));
+    if (j["op_code"] == 0) {
+      ++studies;
+      EXPECT_EQ(j["directions"], nlohmann::json::array({1}));
+    }
+    if (j["op_code"] == 4) trials.push_back(j);
+  }
+  EXPECT_EQ(studies, 2);
+  ASSERT_EQ(trials.size(), 6u);
+  EXPECT_EQ(trials[0]["state"], 1);  // COMPLETE
+  EXPECT_EQ(trials[0]["value"], 2.5);
+  EXPECT_EQ(trials[1]["state"], 1);  // a fall is a measured cost
+  EXPECT_EQ(trials[1]["user_attrs"]["fell"], true);
+  EXPECT_EQ(trials[2]["state"], 3);  // FAIL
+  EXPECT_TRUE(trials[2]["value"].is_null());
+  EXPECT_EQ(trials[4]["state"], 0);  // RUNNING: no completion time
+  EXPECT_FALSE(trials[4].contains("datetime_complete"));
+  EXPECT_TRUE(trials[0].contains("datetime_complete"));
+  EXPECT_EQ(trials[5]["study_id"], 1);
+  // Distributions are JSON strings inside the line, as optuna.distributions.distribution_to_json writes them.
+  const auto d = nlohmann::json::parse(trials[0]["distributions"]["hip_offset"].get<std::string>());
+  EXPECT_EQ(d["name"], "FloatDistribution");
+  EXPECT_EQ(d["attributes"]["log"], false);
+  EXPECT_TRUE(trials[0]["params"]["hip_offset"].is_number());
+  EXPECT_EQ(trials[0]["params"].size(), 6u);
+}
+
+TEST_F(ExportTest, JsonNestsTrialsUnderTheirStudy) {
+  const auto j = export_json(all());
+  ASSERT_EQ(j["studies"].size(), 2u);
+  EXPECT_EQ(j["studies"][0]["trials"].size(), 5u);
+  EXPECT_EQ(j["studies"][0]["fixed"]["frequency"], 1.0);
+  EXPECT_EQ(j["studies"][0]["trials"][3]["params"].size(), 6u);
+}
+
+}  // namespace
+}  // namespace cpgmatch::analysis
