@@ -18,17 +18,29 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json report(bool fell, double cost) {
-  return {{"ok", true},
-          {"outcome", fell ? "fell" : "completed"},
-          {"fell", fell},
-          {"worker_kind", "sim"},
-          {"cost", cost},
-          {"fall_time_s", fell ? 12.5 : -1.0},
-          {"normalized_torque", 30.0},
-          {"mean_speed_mps", 0.3},
-          {"feedback_fraction", {{"late_touchdown", 0.1}, {"early_touchdown", 0.2}, {"early_toeoff", 0.3}, {"late_toeoff", 0.4}}},
-          {"terms", {{"feedback", 0.2}, {"distance", 0.3}, {"pitch", 0.1}, {"contact", 0.0}, {"periodicity", 0.01}}}};
+domain::RolloutReport report(int study, int trial, bool fell, double cost) {
+  domain::RolloutReport r;
+  r.id.study_id = study;
+  r.id.trial_id = trial;
+  r.worker_id = "node-" + std::to_string(trial);
+  r.outcome = fell ? domain::Outcome::kFell : domain::Outcome::kCompleted;
+  r.summary.cost = cost;
+  r.summary.fall_time_s = fell ? 12.5 : -1.0;
+  r.summary.normalized_torque = 30.0;
+  r.summary.mean_speed_mps = 0.3;
+  r.summary.feedback = FeedbackFractions{0.1, 0.2, 0.3, 0.4};
+  r.summary.terms = CostTerms{0.2, 0.3, 0.1, 0.0, 0.01};
+  return r;
+}
+
+domain::RolloutReport crashed(int study, int trial) {
+  domain::RolloutReport r;
+  r.id.study_id = study;
+  r.id.trial_id = trial;
+  r.worker_id = "node-" + std::to_string(trial);
+  r.outcome = domain::Outcome::kError;
+  r.error = "rollout crashed, \"badly\"";
+  return r;
 }
 
 class ExportTest : public ::testing::Test {
@@ -54,11 +66,10 @@ class ExportTest : public ::testing::Test {
       }
       store.add_trials(id, trials);
       if (k == 1) continue;
-      store.complete_trial(id, 0, true, 2.5, report(false, 2.5), 1.7e9 + 5);
-      store.complete_trial(id, 1, true, 17.0, report(true, 17.0), 1.7e9 + 15);
-      store.complete_trial(id, 2, false, 0.0, {{"ok", false}, {"outcome", "error"}, {"error", "rollout crashed, \"badly\""}},
-                           1.7e9 + 25);
-      store.complete_trial(id, 3, true, 0.9, report(false, 0.9), 1.7e9 + 35);
+      store.complete_trial(report(id, 0, false, 2.5), 1.7e9 + 5);
+      store.complete_trial(report(id, 1, true, 17.0), 1.7e9 + 15);
+      store.complete_trial(crashed(id, 2), 1.7e9 + 25);
+      store.complete_trial(report(id, 3, false, 0.9), 1.7e9 + 35);
     }
   }
   void TearDown() override { fs::remove_all(dir_); }
