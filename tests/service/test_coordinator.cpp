@@ -56,6 +56,7 @@ class CoordinatorTest : public ::testing::Test {
     options.model_threads = model_threads_;
     options.model_job_hook = model_job_hook_;
     options.require_authenticated_workers = require_identity_;
+    options.resolve_specs_off_thread = resolve_off_thread_;
     coordinator_ = std::make_unique<Coordinator>(*store_, defer_ ? static_cast<Outbox&>(*deferred_) : out_, options,
                                                  [](const std::string&) {},
                                                  [this](const std::string& m) { warnings_.push_back(m); });
@@ -190,6 +191,7 @@ class CoordinatorTest : public ::testing::Test {
   double wall_ = 1.7e9;       // the wall clock it writes to the store
   int model_threads_ = 0;     // 0: model jobs inline
   bool require_identity_ = false;  // as with DDS-Security on
+  bool resolve_off_thread_ = false;  // as the service runs: submitted specs resolved on a model thread
   std::function<void(int)> model_job_hook_;
 };
 
@@ -660,6 +662,49 @@ TEST_F(CoordinatorTest, AFallModelStudyLearnsFromReportedFallsAndRestartsExactly
   EXPECT_NE(std::vector(uninterrupted.begin() + 31, uninterrupted.end()), std::vector(without.begin() + 31, without.end()));
   ASSERT_EQ(restarted.size(), 7);
   for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
+}
+
+TEST_F(CoordinatorTest, ASubmitResolvedOnAModelThreadIsAnsweredOnceWhenResolvedAndTheStudyRuns) {
+  model_threads_ = 2;
+  resolve_off_thread_ = true;
+  open();
+  worker("a", 2);
+  domain::StudyCommand c;
+  c.correlation_id = ++correlation_;
+  c.client_id = "test";
+  c.kind = domain::CommandKind::kSubmit;
+  c.study_yaml = "name: t\nbudget: 6\ninitial_points: 3\nrollout: {entrain_s: 1, eval_s: 1}\n";
+  coordinator_->handle_command(c, now_);
+  coordinator_->handle_command(c, now_);  // re-sent while its spec resolves
+  // The event thread went on: nothing is stored or answered until the resolved spec is applied on it.
+  EXPECT_TRUE(out_.replies.empty());
+  EXPECT_EQ(coordinator_->studies(), 0);
+  settle(now_ += 0.01);
+  ASSERT_EQ(out_.replies.size(), 1u);  // one answer for the command sent twice
+  EXPECT_TRUE(out_.replies[0].ok) << out_.replies[0].message;
+  EXPECT_EQ(coordinator_->studies(), 1);
+  coordinator_->handle_command(c, now_);  // re-sent after: answered from the cache, not a second study
+  ASSERT_EQ(out_.replies.size(), 2u);
+  EXPECT_EQ(out_.replies[1].study_id, out_.replies[0].study_id);
+  EXPECT_EQ(coordinator_->studies(), 1);
+
+  domain::StudyCommand bad = c;
+  bad.correlation_id = ++correlation_;
+  bad.source_name = "bad.yaml";
+  bad.study_yaml = "name: t\nbudget: 6\nno_such_key: 1\n";
+  coordinator_->handle_command(bad, now_);
+  settle(now_ += 0.01);
+  ASSERT_EQ(out_.replies.size(), 3u);
+  EXPECT_FALSE(out_.replies[2].ok);
+  EXPECT_NE(out_.replies[2].message.find("bad.yaml:3"), std::string::npos) << out_.replies[2].message;
+  EXPECT_EQ(coordinator_->studies(), 1);
+
+  for (int round = 0; round < 50 && out_.states.back().status != domain::StudyStatus::kDone; ++round) {
+    answer_all();
+    settle(now_ += 0.1);
+  }
+  EXPECT_EQ(out_.states.back().status, domain::StudyStatus::kDone);
+  EXPECT_EQ(out_.states.back().completed, 6);
 }
 
 TEST_F(CoordinatorTest, WithModelThreadsAOneSlotStudyProposesTheSameSequenceAndRestartsExactly) {

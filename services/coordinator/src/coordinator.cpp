@@ -84,33 +84,49 @@ double Coordinator::wall_now() const {
 
 
 
-void Coordinator::submit(const domain::StudyCommand& command, double now_s, domain::CommandReply& reply) {
-  const std::string source = !command.source_name.empty() ? command.source_name : "submitted study";
-  std::shared_ptr<const study::StudySpec> spec;
-  if (command.study_yaml.size() > study::kMaxStudyFileBytes) {
-    // Refused before any parsing: a 12 MB file of 700k keys took the service to 800 MB and stalled its
-    // event loop for 2.5 s (a healthy worker was declared silent meanwhile).
-    reply.ok = false;
-    reply.message = fmt::format("{}: {} bytes, more than a study file may have ({} bytes)", source,
-                              command.study_yaml.size(), study::kMaxStudyFileBytes);
-    warn_(fmt::format("submit from {} refused: {}", command.client_id, reply.message));
-    return;
-  }
+namespace {
+
+std::string source_of(const domain::StudyCommand& command) {
+  return !command.source_name.empty() ? command.source_name : "submitted study";
+}
+
+// A submitted study file's spec, resolved onto the defaults; or why it cannot be.
+ResolvedSubmission resolve_submission(const domain::StudyCommand& command, const study::SpecDefaults& defaults) {
+  ResolvedSubmission resolved;
   try {
-    spec = std::make_shared<const study::StudySpec>(
-        study::StudySpec::resolve(command.study_yaml, source, spec_defaults()));
+    resolved.spec = std::make_shared<const study::StudySpec>(
+        study::StudySpec::resolve(command.study_yaml, source_of(command), defaults));
   } catch (const std::exception& e) {
+    resolved.error = e.what();
+  }
+  return resolved;
+}
+
+}  // namespace
+
+std::optional<std::string> Coordinator::oversized(const domain::StudyCommand& command) const {
+  if (command.study_yaml.size() <= study::kMaxStudyFileBytes) return std::nullopt;
+  // Refused before any parsing: a 12 MB file of 700k keys took the service to 800 MB and stalled its
+  // event loop for 2.5 s (a healthy worker was declared silent meanwhile).
+  return fmt::format("{}: {} bytes, more than a study file may have ({} bytes)", source_of(command),
+                     command.study_yaml.size(), study::kMaxStudyFileBytes);
+}
+
+void Coordinator::accept_submission(const domain::StudyCommand& command, const ResolvedSubmission& resolved,
+                                    double now_s, domain::CommandReply& reply) {
+  if (!resolved.spec) {
     reply.ok = false;
-    reply.message = e.what();
-    warn_(fmt::format("submit from {} refused: {}", command.client_id, e.what()));
+    reply.message = resolved.error;
+    warn_(fmt::format("submit from {} refused: {}", command.client_id, resolved.error));
     return;
   }
+  const auto& spec = resolved.spec;
   StudyRun s;
   s.spec = spec;
   s.config = spec->config();
   s.name = s.config.name;
   s.created_at_s = wall_now();
-  s.id = store_.create_study(s.name, command.study_yaml, source, s.created_at_s,
+  s.id = store_.create_study(s.name, command.study_yaml, source_of(command), s.created_at_s,
                              study::StoredSpec{spec->canonical_json(), spec->sha256(), study::kOriginSubmitted});
   const int id = s.id;
   info_(fmt::format("study {} '{}' submitted: budget {}, {} parameters", id, s.name, s.config.budget,
@@ -121,45 +137,75 @@ void Coordinator::submit(const domain::StudyCommand& command, double now_s, doma
   reply.message = fmt::format("study {} '{}' accepted (spec {})", id, studies_.at(id).name, spec->sha256().substr(0, 16));
 }
 
+void Coordinator::resolve_off_thread(const domain::StudyCommand& command) {
+  // A re-sent submit whose spec is still being resolved: its one reply comes when it is.
+  if (!resolving_.insert({command.client_id, command.correlation_id}).second) return;
+  // Keys above every study id: a submit's job never waits behind a study's model job, and two submits
+  // resolve in parallel.
+  const std::uint64_t key = (std::uint64_t{1} << 63) | next_submit_job_++;
+  models_.run_aside(key, [this, command, defaults = spec_defaults()]() -> ModelPool::Completion {
+    ResolvedSubmission resolved = resolve_submission(command, defaults);  // on a model thread
+    return [this, command, resolved = std::move(resolved)] {
+      resolving_.erase({command.client_id, command.correlation_id});
+      answer(command, [&](domain::CommandReply& reply) { accept_submission(command, resolved, now_s_, reply); });
+    };
+  });
+}
+
 void Coordinator::handle_command(const domain::StudyCommand& command, double now_s) {
+  now_s_ = now_s;
   if (const auto done = replies_.find(command)) {
     out_.reply(*done);  // a re-sent command: same answer, not a second execution
     return;
   }
+  if (command.kind == domain::CommandKind::kSubmit) {
+    if (const auto too_big = oversized(command)) {
+      return answer(command, [&](domain::CommandReply& reply) {
+        reply.message = *too_big;
+        warn_(fmt::format("submit from {} refused: {}", command.client_id, *too_big));
+      });
+    }
+    if (options_.resolve_specs_off_thread) return resolve_off_thread(command);
+    return answer(command, [&](domain::CommandReply& reply) {
+      accept_submission(command, resolve_submission(command, spec_defaults()), now_s, reply);
+    });
+  }
+  answer(command, [&](domain::CommandReply& reply) {
+    StudyRun* s = find_study(command.study_id);
+    if (s == nullptr) {
+      reply.message = fmt::format("no study {}", command.study_id);
+      return;
+    }
+    const StudyStatus wanted = command.kind == domain::CommandKind::kPause    ? StudyStatus::kPaused
+                               : command.kind == domain::CommandKind::kResume ? StudyStatus::kRunning
+                                                                              : StudyStatus::kStopped;
+    std::optional<StudyStatus> target;
+    if (wanted == StudyStatus::kPaused && s->state == StudyStatus::kRunning) target = wanted;
+    if (wanted == StudyStatus::kRunning && s->state == StudyStatus::kPaused) target = wanted;
+    if (wanted == StudyStatus::kStopped && s->is_open()) target = wanted;
+    if (!target) {
+      reply.message = fmt::format("study {} is {}: nothing to do", s->id, to_string(s->state));
+      reply.ok = s->state == wanted;
+    } else {
+      store_.set_state(s->id, to_string(*target), "");
+      s->state = *target;
+      s->dirty = true;
+      reply.ok = true;
+      reply.message = fmt::format("study {} is {}", s->id, to_string(*target));
+      info_(reply.message);
+      publish_state(*s, now_s);
+    }
+  });
+}
+
+void Coordinator::answer(const domain::StudyCommand& command, const std::function<void(domain::CommandReply&)>& execute) {
   domain::CommandReply reply;
   reply.correlation_id = command.correlation_id;
   reply.client_id = command.client_id;
   reply.study_id = command.study_id;
   reply.ok = false;
   try {
-    if (command.kind == domain::CommandKind::kSubmit) {
-      submit(command, now_s, reply);
-    } else {
-      StudyRun* s = find_study(command.study_id);
-      if (s == nullptr) {
-        reply.message = fmt::format("no study {}", command.study_id);
-      } else {
-        const StudyStatus wanted = command.kind == domain::CommandKind::kPause    ? StudyStatus::kPaused
-                                   : command.kind == domain::CommandKind::kResume ? StudyStatus::kRunning
-                                                                           : StudyStatus::kStopped;
-        std::optional<StudyStatus> target;
-        if (wanted == StudyStatus::kPaused && s->state == StudyStatus::kRunning) target = wanted;
-        if (wanted == StudyStatus::kRunning && s->state == StudyStatus::kPaused) target = wanted;
-        if (wanted == StudyStatus::kStopped && s->is_open()) target = wanted;
-        if (!target) {
-          reply.message = fmt::format("study {} is {}: nothing to do", s->id, to_string(s->state));
-          reply.ok = s->state == wanted;
-        } else {
-          store_.set_state(s->id, to_string(*target), "");
-          s->state = *target;
-          s->dirty = true;
-          reply.ok = true;
-          reply.message = fmt::format("study {} is {}", s->id, to_string(*target));
-          info_(reply.message);
-          publish_state(*s, now_s);
-        }
-      }
-    }
+    execute(reply);
   } catch (const study::StoreWriteError& e) {
     // The store cannot record the command's effect: tell the client why, then stop the service (the
     // caller sees the same error) rather than go on acknowledging what it cannot record.
@@ -564,6 +610,7 @@ void Coordinator::retire_finished(StudyRun& s, double now_s) {
 }
 
 void Coordinator::tick(double now_s) {
+  now_s_ = now_s;
   dispatcher_.start_tick(options_.max_issues_per_tick);
   apply_model_results();
   for (const auto& id : pool_.silent(now_s, options_.worker_timeout_s)) drop_worker(id, fmt::format("silent for over {:.1f} s", options_.worker_timeout_s), now_s);

@@ -97,6 +97,11 @@ struct CoordinatorOptions {
   // hang, when the wall clock is stepped); this clock gives the Unix time written to the store and shown
   // as a study's age. Empty: the system clock.
   std::function<double()> wall_clock_s;
+  // Resolve a submitted study file's spec (YAML, defaults, canonical JSON, SHA-256: about 7 ms) on a model
+  // thread instead of the event thread, and answer the submit once it is resolved. A burst of 20 submits
+  // held the event loop for 136-221 ms resolving them (docs/dds.md). Off: resolved at once on the event
+  // thread (unit tests' determinism: the reply is out when handle_command returns).
+  bool resolve_specs_off_thread = false;
   // Threads for model fits and acquisition optimisation (0: run them inline on the event thread, which
   // is deterministic to the call and what unit tests of the bookkeeping use).
   int model_threads = 0;
@@ -116,6 +121,12 @@ struct CoordinatorOptions {
 };
 
 using LogFn = std::function<void(const std::string&)>;
+
+// A submitted study's spec, resolved (possibly on a model thread), or why it could not be.
+struct ResolvedSubmission {
+  std::shared_ptr<const study::StudySpec> spec;
+  std::string error;
+};
 
 class Coordinator {
  public:
@@ -167,7 +178,16 @@ class Coordinator {
   // With require_authenticated_workers: why `sender_identity` may not speak for `worker_id`, or nothing.
   std::optional<std::string> identity_refusal(const std::string& worker_id,
                                               const std::optional<std::string>& sender_identity) const;
-  void submit(const domain::StudyCommand& command, double now_s, domain::CommandReply& reply);
+  // Runs a command and answers it: the reply is cached (a re-sent command gets it again) and published;
+  // a store that cannot record the command's effect answers and rethrows.
+  void answer(const domain::StudyCommand& command, const std::function<void(domain::CommandReply&)>& execute);
+  // Why a submitted study file is refused before any parsing (too large), or nothing.
+  std::optional<std::string> oversized(const domain::StudyCommand& command) const;
+  // Stores and opens a submitted study whose spec resolved, or answers why it did not.
+  void accept_submission(const domain::StudyCommand& command, const ResolvedSubmission& resolved, double now_s,
+                         domain::CommandReply& reply);
+  // CoordinatorOptions::resolve_specs_off_thread: resolves on a model thread, accepts on the event thread.
+  void resolve_off_thread(const domain::StudyCommand& command);
   StudyRun* find_study(int study_id);
   void open_study(StudyRun&& study, const study::StoredStudy* stored, double now_s);
   void drop_worker(const std::string& worker_id, const std::string& why, double now_s);
@@ -211,6 +231,9 @@ class Coordinator {
   WorkerPool pool_;
   Dispatcher dispatcher_;  // after pool_: it refers to it
   std::map<int, double> last_state_publish_;
+  std::set<std::pair<std::string, std::uint64_t>> resolving_;  // submits whose spec a model thread resolves
+  std::uint64_t next_submit_job_ = 0;
+  double now_s_ = 0.0;  // monotonic time of the latest event or tick (for work finished off the event thread)
   ReplyCache replies_;  // a re-sent command is answered again, not executed again
   int round_robin_ = 0;
   std::uint64_t rejected_ = 0;

@@ -96,6 +96,10 @@ class ModelScheduler {
   // will fill. `free_simulation` / `free_hardware`: free slots of each kind.
   void start_jobs(std::map<int, StudyRun>& studies, const std::vector<StudyRun*>& order, int free_simulation,
                   int free_hardware);
+  // Runs other work on the model threads (inline without threads), its completion on the event thread in
+  // apply_results(). Jobs with the same key run one at a time; study jobs use the study id as key, so other
+  // work takes keys no study has.
+  void run_aside(std::uint64_t key, ModelPool::Work work) { pool_.submit(key, std::move(work)); }
   // Runs the event-thread half of every finished job; returns how many.
   int apply_results() { return pool_.run_finished(); }
   void wait_until_finished() const { pool_.wait_until_finished(); }
