@@ -191,6 +191,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   options.acquisition_threads = acquisition_threads;
   // A submit's spec is resolved beside the event loop; with --model-threads 0 (everything inline) on it.
   options.resolve_specs_off_thread = model_threads > 0;
+  options.where = fmt::format("domain {}", domain);
   service::EventQueue<Event> queue;
   options.on_model_result = [&queue] { queue.push(Event{ModelResult{}}); };
   // With DDS-Security, a report or an announcement counts only from a participant whose certificate owns

@@ -664,6 +664,17 @@ TEST_F(CoordinatorTest, AFallModelStudyLearnsFromReportedFallsAndRestartsExactly
   for (std::size_t i = 0; i < restarted.size(); ++i) EXPECT_EQ(restarted[i], uninterrupted[36 + i]) << "candidate " << 36 + i;
 }
 
+TEST_F(CoordinatorTest, AStudyWithNoSimulationWorkerOnTheDomainSaysSoUntilOneJoins) {
+  const int id = submit(4, 2);
+  settle(now_ += 0.1);
+  EXPECT_EQ(out_.states.back().study_id, id);
+  EXPECT_EQ(out_.states.back().message, "waiting for simulation workers: none on this domain");
+  worker("a", 2);
+  settle(now_ += 0.1);
+  EXPECT_EQ(out_.states.back().message, "");  // it runs now
+  EXPECT_FALSE(out_.candidates.empty());
+}
+
 TEST_F(CoordinatorTest, ASubmitResolvedOnAModelThreadIsAnsweredOnceWhenResolvedAndTheStudyRuns) {
   model_threads_ = 2;
   resolve_off_thread_ = true;

@@ -122,8 +122,11 @@ std::string progress_line(const json& s) {
   return fmt::format("study {} [{}{}] {:>4}/{} best {:<9} {:6.2f} rollouts/s  eta {:>5}  workers {}  {}",
                      s["study_id"].get<int>(), std::string(filled, '#'), std::string(width - filled, '.'), done, budget,
                      num(s["best_cost"]), rate, eta, s["workers"].get<int>(), s["state"].get<std::string>()) +
-         // A mixed study whose validation waits for a robot says so (see docs/dds.md, StudyState.message).
-         (s.value("message", "").rfind("waiting_for_hardware", 0) == 0 ? "  (waiting for a hardware worker)" : "");
+         // A running study whose work waits says for what: no simulation worker on the domain, a robot under an
+         // emergency stop, a hardware phase without a robot (docs/dds.md, StudyState.message).
+         (s["state"].get<std::string>() == "running" && s.value("message", "").rfind("waiting", 0) == 0
+              ? "  (" + s.value("message", "") + ")"
+              : std::string());
 }
 
 void add_study_service_commands(CLI::App* study) {

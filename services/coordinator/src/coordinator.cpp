@@ -443,6 +443,12 @@ void Coordinator::note_hardware_wait(StudyRun& s, double now_s) {
     if (!any_usable && !reasons.empty()) {
       for (const auto& reason : reasons) blocked += (blocked.empty() ? "waiting: " : "; ") + reason;
     }
+    // No worker of the kind at all (none started, or started on another domain): said in so many words,
+    // not left as a study that is "running" with nothing happening.
+    if (sim_work && !pool_.has_simulation()) {
+      blocked = fmt::format("waiting for simulation workers: none on {}", options_.where) +
+                (blocked.empty() ? "" : "; " + blocked.substr(std::string("waiting: ").size()));
+    }
   }
   if (waits == s.waiting_for_hardware && blocked == s.waiting_message) return;
   s.waiting_for_hardware = waits;

@@ -102,4 +102,8 @@ bool WorkerPool::has_hardware() const {
   return std::any_of(workers_.begin(), workers_.end(), [](const auto& kv) { return kv.second.hardware; });
 }
 
+bool WorkerPool::has_simulation() const {
+  return std::any_of(workers_.begin(), workers_.end(), [](const auto& kv) { return !kv.second.hardware; });
+}
+
 }  // namespace cpgmatch::service

@@ -151,7 +151,22 @@ void WorkerLink::heartbeat_until(const std::function<bool()>& stop) {
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.heartbeat_s));
   auto next = Clock::now();
   bool announced_accepting = true;
+  // The optimizer reads the announcements: no reader matched for a while means none on this domain (not
+  // started, or started on another domain, or a DDS-Security mismatch). Said in the log, once per silence.
+  auto last_heard = Clock::now();
+  bool said_unheard = false;
   while (!stop()) {
+    if (announcements_.matched().count() > 0) {
+      if (said_unheard) spdlog::info("worker {}: an optimizer is on domain {} now", config_.worker_id, config_.domain);
+      last_heard = Clock::now();
+      said_unheard = false;
+    } else if (!said_unheard && Clock::now() - last_heard > kOptimizerSilence) {
+      spdlog::warn("worker {}: no optimizer on DDS domain {} for {} s (none running, another domain, or its "
+                   "security settings do not match this worker's)",
+                   config_.worker_id, config_.domain,
+                   std::chrono::duration_cast<std::chrono::seconds>(kOptimizerSilence).count());
+      said_unheard = true;
+    }
     const bool accepting = accepting_;
     if (Clock::now() >= next || accepting != announced_accepting) {
       announce(accepting);

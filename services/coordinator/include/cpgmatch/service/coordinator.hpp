@@ -97,6 +97,9 @@ struct CoordinatorOptions {
   // hang, when the wall clock is stepped); this clock gives the Unix time written to the store and shown
   // as a study's age. Empty: the system clock.
   std::function<double()> wall_clock_s;
+  // Where the service's workers would be, for the message of a study that waits for a kind of worker none
+  // of which is there ("waiting for simulation workers: none on domain 7").
+  std::string where = "this domain";
   // Resolve a submitted study file's spec (YAML, defaults, canonical JSON, SHA-256: about 7 ms) on a model
   // thread instead of the event thread, and answer the submit once it is resolved. A burst of 20 submits
   // held the event loop for 136-221 ms resolving them (docs/dds.md). Off: resolved at once on the event

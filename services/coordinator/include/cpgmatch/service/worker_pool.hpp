@@ -64,6 +64,7 @@ class WorkerPool {
   bool on_probation(const std::string& id) const { return probation_.count(id) > 0; }
 
   bool has_hardware() const;
+  bool has_simulation() const;
   int size() const { return static_cast<int>(workers_.size()); }
   const std::map<std::string, PoolWorker>& all() const { return workers_; }
 

@@ -70,6 +70,8 @@ class WorkerLink {
   // on two topics, so the candidate can come first); nothing when it did not arrive in time.
   std::optional<ReceivedSpec> spec(std::uint64_t key, std::chrono::milliseconds wait);
 
+  // How long a worker hears no optimizer before it says so in its log.
+  static constexpr std::chrono::seconds kOptimizerSilence{10};
   // Announces every heartbeat period until `stop` returns true (checked every 50 ms, so a signal is
   // acted on quickly), then once more as not accepting.
   void heartbeat_until(const std::function<bool()>& stop);
