@@ -42,11 +42,11 @@ MeasuredTrace recorded(const sim::MortiModel& m, std::uint64_t seed, double seco
   return trace;
 }
 
-// What a robot's sensors add: encoder and IMU noise (the emulator's --position-noise order), and the CAN
-// protocol's quantisation of joint positions (0.38 mrad).
+// What a robot's sensors add: encoder and IMU noise (the emulator's --position-noise order), FootTile noise
+// (configs/rollout.yaml's 0.3 N), and the CAN protocol's quantisation of joint positions (0.38 mrad).
 void add_sensor_noise(MeasuredTrace& trace, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
-  std::normal_distribution<double> joint(0.0, 0.005), pitch(0.0, 0.003), speed(0.0, 0.02);
+  std::normal_distribution<double> joint(0.0, 0.005), pitch(0.0, 0.003), speed(0.0, 0.02), force(0.0, 0.3);
   const auto quantise = [](double rad) { return std::round(rad / 3.8e-4) * 3.8e-4; };
   for (auto& tick : trace.ticks) {
     tick.pitch_rad += pitch(rng);
@@ -54,6 +54,7 @@ void add_sensor_noise(MeasuredTrace& trace, std::uint64_t seed) {
     for (auto& leg : tick.legs) {
       leg.hip_rad = quantise(leg.hip_rad + joint(rng));
       leg.knee_rad = quantise(leg.knee_rad + joint(rng));
+      leg.foot_force_n += force(rng);
     }
   }
 }
@@ -102,9 +103,9 @@ TEST(MeasuredTrace, BadCsvNamesLineAndColumn) {
   std::string header = "time_s,pitch_rad,vx_mps";
   std::string row0 = "0,0,0", row1 = "0.002,0,0";
   for (const char* leg : {"FL", "FR", "HL", "HR"}) {
-    header += fmt::format(",{0}_hip_target_rad,{0}_hip_rad,{0}_knee_target_rad,{0}_knee_rad,{0}_contact", leg);
-    row0 += ",0,0,0,0,1";
-    row1 += ",0,0,0,0,1";
+    header += fmt::format(",{0}_hip_target_rad,{0}_hip_rad,{0}_knee_target_rad,{0}_knee_rad,{0}_foot_force_n,{0}_contact", leg);
+    row0 += ",0,0,0,0,10,1";
+    row1 += ",0,0,0,0,10,1";
   }
   expect_input_error("time_s,pitch_rad\n0,0\n", ":1: no column 'vx_mps'");
   expect_input_error(header + "\n" + row0 + "\n" + row1.substr(0, row1.size() - 1) + "x\n", ":3: column 'HR_contact': 'x' is not a finite number");

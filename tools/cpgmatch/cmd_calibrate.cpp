@@ -34,9 +34,11 @@ struct CalibrateOptions {
   std::uint64_t seed = 0;
   double window_s = 3.0;
   double contact_weight = 1.0;
+  double force_scale = 2.0;
   double robust_rms = 3.0;
   double relative_step = 0.02;
   int max_iterations = 25;
+  int grid_points = 0;
   std::vector<double> scan;
   bool json = false;
 };
@@ -51,7 +53,7 @@ std::string read_text(const std::string& path) {
 
 nlohmann::json rms_json(const cal::ChannelRms& r) {
   return {{"knee_rad", r.knee_rad}, {"hip_rad", r.hip_rad}, {"pitch_rad", r.pitch_rad}, {"speed_mps", r.speed_mps},
-          {"contact_mismatch", r.contact_mismatch}};
+          {"contact_mismatch", r.contact_mismatch}, {"foot_force_n", r.foot_force_n}};
 }
 
 nlohmann::json result_json(const cal::CalibrationResult& r, const std::string& out) {
@@ -65,7 +67,7 @@ nlohmann::json result_json(const cal::CalibrationResult& r, const std::string& o
   return {{"values", values}, {"cost_before", r.cost_before}, {"cost_after", r.cost_after},
           {"rms_before", rms_json(r.rms_before)}, {"rms_after", rms_json(r.rms_after)},
           {"residuals", r.residual_count}, {"iterations", r.iterations}, {"replays", r.simulations},
-          {"wall_time_s", r.wall_time_s}, {"converged", r.converged}, {"solver", r.solver_report}, {"out", out}};
+          {"solver_start", r.solver_start}, {"wall_time_s", r.wall_time_s}, {"converged", r.converged}, {"solver", r.solver_report}, {"out", out}};
 }
 
 void print_result(const cal::CalibrationResult& r, const std::string& out) {
@@ -76,10 +78,10 @@ void print_result(const cal::CalibrationResult& r, const std::string& out) {
                v.unit, v.at_bound ? "  (at its physical bound)" : "");
   }
   fmt::print("  cost {:.6g} -> {:.6g}; RMS knee {:.4f} -> {:.4f} rad, hip {:.4f} -> {:.4f} rad, speed {:.3f} -> "
-             "{:.3f} m/s, contact mismatch {:.1f}% -> {:.1f}%\n",
+             "{:.3f} m/s, contact mismatch {:.1f}% -> {:.1f}%, foot force {:.2f} -> {:.2f} N\n",
              r.cost_before, r.cost_after, r.rms_before.knee_rad, r.rms_after.knee_rad, r.rms_before.hip_rad,
              r.rms_after.hip_rad, r.rms_before.speed_mps, r.rms_after.speed_mps, 100 * r.rms_before.contact_mismatch,
-             100 * r.rms_after.contact_mismatch);
+             100 * r.rms_after.contact_mismatch, r.rms_before.foot_force_n, r.rms_after.foot_force_n);
   fmt::print("  wrote {}\n", out);
 }
 
@@ -118,10 +120,14 @@ void add_calibrate_command(CLI::App& app) {
   cmd->add_option("--window", o->window_s, "seconds of each trace fitted, from its start")->check(finite_in(0.1, 60.0, "s"));
   cmd->add_option("--contact-weight", o->contact_weight, "weight of a tick's contact mismatch (0: contacts left out)")
       ->check(finite_in(0.0, 100.0, ""));
+  cmd->add_option("--force-scale", o->force_scale, "foot-force misfit counted as one unit, N (0: forces left out)")
+      ->check(finite_in(0.0, 1000.0, "N"));
   cmd->add_option("--robust-rms", o->robust_rms, "Huber threshold: a tick's residual RMS, in scales")->check(finite_in(0.1, 1000.0, ""));
   cmd->add_option("--relative-step", o->relative_step, "central-difference step relative to each value")
       ->check(finite_in(1e-4, 0.2, ""));
   cmd->add_option("--max-iterations", o->max_iterations, "solver iterations at most")->check(CLI::Range(1, 500));
+  cmd->add_option("--grid", o->grid_points, "first try this many points across each value's physical range (0: none)")
+      ->check(CLI::Range(0, 100));
   cmd->add_option("--scan", o->scan, "before fitting, print the cost at these multiples of each start value")
       ->check(finite_in(0.01, 100.0, ""));
   cmd->add_flag("--json", o->json, "print exactly one JSON object");
@@ -148,9 +154,11 @@ void add_calibrate_command(CLI::App& app) {
     cal::CalibrationOptions options;
     options.values = values;
     options.scales.contact_mismatch = o->contact_weight;
+    options.scales.foot_force_n = o->force_scale;
     options.robust_rms = o->robust_rms;
     options.relative_step = o->relative_step;
     options.max_iterations = o->max_iterations;
+    options.grid_points = o->grid_points;
     cal::Calibration calibration(start, std::move(traces), options);
     if (!o->scan.empty() && !o->json) print_scan(calibration, start, values, o->scan);
     const cal::CalibrationResult result = calibration.solve();

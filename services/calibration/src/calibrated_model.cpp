@@ -25,8 +25,9 @@ std::string without_double_quotes(std::string s) {
 }
 
 std::string rms_summary(const ChannelRms& r) {
-  return fmt::format("knee {:.4f} rad, hip {:.4f} rad, pitch {:.4f} rad, speed {:.3f} m/s, contact mismatch {:.1f}%",
-                     r.knee_rad, r.hip_rad, r.pitch_rad, r.speed_mps, 100.0 * r.contact_mismatch);
+  return fmt::format(
+      "knee {:.4f} rad, hip {:.4f} rad, pitch {:.4f} rad, speed {:.3f} m/s, contact mismatch {:.1f}%, foot force {:.2f} N",
+      r.knee_rad, r.hip_rad, r.pitch_rad, r.speed_mps, 100.0 * r.contact_mismatch, r.foot_force_n);
 }
 
 std::string entry_for(const std::string& key, const FittedValue& v, const CalibrationResult& r,

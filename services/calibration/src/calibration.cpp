@@ -46,6 +46,7 @@ void accumulate(ChannelRms& sum, const MeasuredTick& m, const MeasuredTick& s) {
     sum.knee_rad += std::pow(s.legs[leg].knee_rad - m.legs[leg].knee_rad, 2);
     sum.hip_rad += std::pow(s.legs[leg].hip_rad - m.legs[leg].hip_rad, 2);
     sum.contact_mismatch += s.legs[leg].contact != m.legs[leg].contact ? 1.0 : 0.0;
+    sum.foot_force_n += std::pow(s.legs[leg].foot_force_n - m.legs[leg].foot_force_n, 2);
   }
   sum.pitch_rad += std::pow(s.pitch_rad - m.pitch_rad, 2);
   sum.speed_mps += std::pow(s.vx_mps - m.vx_mps, 2);
@@ -118,6 +119,23 @@ struct Calibration::Impl {
     }
   }
 
+  // Coordinate-wise over a grid in each value's bounds: moves x to the best point found.
+  void grid_search() {
+    const int k = options.grid_points;
+    if (k < 2) return;
+    double best = cost();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const ModelValue& v = *options.values[i];
+      double best_xi = x[i];
+      for (int j = 0; j < k; ++j) {
+        x[i] = (v.lower + (v.upper - v.lower) * j / (k - 1)) / scales[i];
+        const double c = cost();
+        if (c < best) best = c, best_xi = x[i];
+      }
+      x[i] = best_xi;
+    }
+  }
+
   double cost() {
     double c = 0.0;
     if (!problem.Evaluate(ceres::Problem::EvaluateOptions(), &c, nullptr, nullptr, nullptr)) {
@@ -131,7 +149,7 @@ struct Calibration::Impl {
     const std::vector<MeasuredTrace>* replays = cache->replays_at(x.data());
     if (replays == nullptr) {
       const double inf = std::numeric_limits<double>::infinity();
-      return {inf, inf, inf, inf, inf};
+      return {inf, inf, inf, inf, inf, inf};
     }
     std::size_t ticks = 0;
     for (std::size_t k = 0; k < traces.size(); ++k) {
@@ -142,7 +160,7 @@ struct Calibration::Impl {
     }
     const double legs = static_cast<double>(ticks) * kNumLegs;
     return {std::sqrt(sum.knee_rad / legs), std::sqrt(sum.hip_rad / legs), std::sqrt(sum.pitch_rad / ticks),
-            std::sqrt(sum.speed_mps / ticks), sum.contact_mismatch / legs};
+            std::sqrt(sum.speed_mps / ticks), sum.contact_mismatch / legs, std::sqrt(sum.foot_force_n / legs)};
   }
 
   // Standard deviations of the values (their units), or NaN where the Jacobian is rank deficient.
@@ -186,6 +204,8 @@ CalibrationResult Calibration::solve() {
   CalibrationResult result;
   result.cost_before = m.cost();
   result.rms_before = m.rms();
+  m.grid_search();
+  for (std::size_t i = 0; i < m.x.size(); ++i) result.solver_start.push_back(m.x[i] * m.scales[i]);
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = m.options.max_iterations;

@@ -44,7 +44,7 @@ class Columns {
 };
 
 struct LegColumns {
-  std::size_t hip_target, hip, knee_target, knee, contact;
+  std::size_t hip_target, hip, knee_target, knee, contact, foot_force;
 };
 
 double number(const std::string& path, long line_no, const std::vector<std::string_view>& cells, std::size_t column,
@@ -75,7 +75,8 @@ MeasuredTrace read_trace_csv(const std::string& path) {
   for (int leg = 0; leg < kNumLegs; ++leg) {
     const std::string l(kLegNames[leg]);
     leg_cols[leg] = {columns.find(l + "_hip_target_rad"), columns.find(l + "_hip_rad"),
-                     columns.find(l + "_knee_target_rad"), columns.find(l + "_knee_rad"), columns.find(l + "_contact")};
+                     columns.find(l + "_knee_target_rad"), columns.find(l + "_knee_rad"), columns.find(l + "_contact"),
+                     columns.find(l + "_foot_force_n")};
   }
   MeasuredTrace trace;
   trace.source = path;
@@ -103,6 +104,7 @@ MeasuredTrace read_trace_csv(const std::string& path) {
         throw InputError(fmt::format("{}:{}: column '{}_contact': {} is not 0 or 1", path, line_no, l, contact));
       }
       m.contact = contact == 1.0;
+      m.foot_force_n = number(path, line_no, cells, c.foot_force, "foot_force_n", l);
     }
     // The replay re-runs the rollout from its start at the control rate: the ticks must be that grid.
     const std::size_t index = trace.ticks.size();
@@ -131,7 +133,7 @@ MeasuredTick to_measured_tick(const TraceSample& sample) {
     const JointCommand& cmd = sample.output->commands[leg];
     const LegState& ls = sample.state->legs[leg];
     tick.legs[leg] = {cmd.hip_angle_rad, ls.hip_angle_rad, cmd.knee_flexion_rad, ls.knee_flexion_rad,
-                      (*sample.contacts)[leg]};
+                      (*sample.contacts)[leg], ls.foot_normal_force_n};
   }
   return tick;
 }

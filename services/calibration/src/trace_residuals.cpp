@@ -14,6 +14,9 @@ void tick_residuals(const MeasuredTrace& measured, const MeasuredTrace& simulate
     for (int leg = 0; leg < kNumLegs; ++leg) {
       *out++ = scales.contact_mismatch * (static_cast<double>(s.legs[leg].contact) - static_cast<double>(m.legs[leg].contact));
     }
+    for (int leg = 0; leg < kNumLegs; ++leg) {
+      *out++ = scales.foot_force_n > 0.0 ? (s.legs[leg].foot_force_n - m.legs[leg].foot_force_n) / scales.foot_force_n : 0.0;
+    }
   }
 }
 

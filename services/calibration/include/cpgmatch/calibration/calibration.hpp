@@ -35,6 +35,11 @@ struct CalibrationOptions {
   // (a touchdown moves by a whole poll when a value crosses a threshold), small against the value.
   double relative_step = 0.02;
   int max_iterations = 25;
+  // Before the local solve, try this many evenly spaced points across each value's physical range, one
+  // value after the other, and start from the best (0: start from the start model). Why: some values act
+  // only past a threshold (a foot slides only when friction is below what the gait asks of it), so the
+  // cost is flat on one side of the answer and a gradient method started there never moves.
+  int grid_points = 0;
 };
 
 // The RMS of each channel's misfit over every tick, in the channel's own unit.
@@ -44,6 +49,7 @@ struct ChannelRms {
   double pitch_rad = 0.0;
   double speed_mps = 0.0;
   double contact_mismatch = 0.0;  // fraction of leg-ticks whose contact differs
+  double foot_force_n = 0.0;
 };
 
 struct FittedValue {
@@ -68,7 +74,8 @@ struct CalibrationResult {
   ChannelRms rms_after;
   std::size_t residual_count = 0;
   int iterations = 0;
-  long simulations = 0;        // replays run (each trace counts once)
+  long simulations = 0;        // replays run (each trace counts once), the grid's included
+  std::vector<double> solver_start;  // where the local solve started (the start model's values unless a grid moved them)
   double wall_time_s = 0.0;
   bool converged = false;
   std::string solver_report;   // Ceres' one-line summary

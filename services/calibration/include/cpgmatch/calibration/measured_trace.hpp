@@ -18,6 +18,7 @@ struct MeasuredLeg {
   double knee_target_rad = 0.0;  // commanded knee flexion on top of the standing knee angle
   double knee_rad = 0.0;
   bool contact = false;          // the contact the controller saw at this tick
+  double foot_force_n = 0.0;     // the foot sensor's reading (a FootTile's pressure as a force)
 };
 
 struct MeasuredTick {

@@ -21,10 +21,13 @@ struct ResidualScales {
   // is piecewise constant in the model values: it adds to the cost, but its numeric derivative is mostly
   // zero, with a jump wherever a touchdown moves by one poll period (docs/calibration.md).
   double contact_mismatch = 1.0;
+  // The foot sensors' readings, newtons; 0 leaves them out. Unlike the binary contact, the reading moves
+  // smoothly with the contact's compliance and the sensor's own sensitivity and lag, which only it shows.
+  double foot_force_n = 2.0;
 };
 
-// Residuals per tick: 4 knees, 4 hips, pitch, speed, 4 contacts.
-inline constexpr int kResidualsPerTick = 14;
+// Residuals per tick: 4 knees, 4 hips, pitch, speed, 4 contacts, 4 foot forces.
+inline constexpr int kResidualsPerTick = 18;
 
 // Writes the residuals of ticks [first, last) of `simulated` against `measured` to `out`
 // (kResidualsPerTick per tick, in that order).
