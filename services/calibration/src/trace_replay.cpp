@@ -15,15 +15,6 @@ namespace {
 // The CSV keeps 4 decimals of an angle: a recomputed command within this of the trace's is the same one.
 constexpr double kCommandTolerance_rad = 2e-4;
 
-int steps_per(double physics_rate_hz, double rate_hz, const char* what) {
-  const double ratio = physics_rate_hz / rate_hz;
-  const long steps = std::lround(ratio);
-  if (steps < 1 || std::abs(ratio - static_cast<double>(steps)) > 1e-9) {
-    throw InputError(fmt::format("the {} rate {} Hz does not divide the physics rate {} Hz", what, rate_hz, physics_rate_hz));
-  }
-  return static_cast<int>(steps);
-}
-
 bool finite(const PlantState& s) {
   bool ok = std::isfinite(s.trunk.x_m) && std::isfinite(s.trunk.height_m) && std::isfinite(s.trunk.pitch_rad) &&
             std::isfinite(s.trunk.vx_mps);
@@ -71,32 +62,20 @@ std::optional<MeasuredTrace> replay(const sim::MortiModel& model, const CommandS
                                     const ReplaySetup& setup) {
   sim::OdePlant plant(model, setup.terrain, setup.seed);
   ContactSensor sensor(setup.settings.contact_sensor, setup.seed);
-  const int control_every = steps_per(model.physics_rate_hz, setup.settings.controller.control_rate_hz, "control");
-  const int contact_every = steps_per(model.physics_rate_hz, setup.settings.contact_sensor.poll_rate_hz, "contact polling");
+  const RolloutClock clock(plant, setup.settings);
   const double dt = plant.time_step_s();
   MeasuredTrace out;
   out.source = "replay";
   out.ticks.reserve(commands.size());
   PerLeg<bool> contacts{};
   ControllerOutput output;  // only its commands are used: the replay's sample for to_measured_tick
-  // The same order of polling, sampling and commanding as run_rollout, so that a replay on the model
-  // that made the trace gives the trace again.
+  // run_rollout's clock, so that a replay on the model that made the trace gives the trace again.
   for (long step = 0; out.ticks.size() < commands.size(); ++step) {
-    const bool poll = step % contact_every == 0;
-    const bool control = step % control_every == 0;
-    if (poll || control) {
-      const PlantState state = plant.state();
-      if (poll) {
-        PerLeg<double> forces{};
-        for (int leg = 0; leg < kNumLegs; ++leg) forces[leg] = state.legs[leg].foot_normal_force_n;
-        contacts = sensor.poll(state.time_s, forces);
-      }
-      if (control) {
-        if (!finite(state)) return std::nullopt;
-        output.commands = commands[out.ticks.size()];
-        out.ticks.push_back(to_measured_tick(TraceSample{state.time_s, &state, &output, &contacts}));
-        plant.command(output.commands);
-      }
+    if (const std::optional<PlantState> state = clock.sense(step, plant, sensor, contacts)) {
+      if (!finite(*state)) return std::nullopt;
+      output.commands = commands[out.ticks.size()];
+      out.ticks.push_back(to_measured_tick(TraceSample{state->time_s, &*state, &output, &contacts}));
+      plant.command(output.commands);
     }
     plant.advance(dt);
   }
