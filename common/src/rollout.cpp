@@ -64,6 +64,27 @@ std::optional<std::string> impossible_motion(const TimedTrunk& previous, const P
 
 }  // namespace
 
+RolloutClock::RolloutClock(const Plant& plant, const RolloutSettings& settings) {
+  const double physics_rate = 1.0 / plant.time_step_s();
+  control_every_ = divider(physics_rate, settings.controller.control_rate_hz, "control");
+  contact_every_ = divider(physics_rate, settings.contact_sensor.poll_rate_hz, "contact polling");
+}
+
+std::optional<PlantState> RolloutClock::sense(long step, const Plant& plant, ContactSensor& sensor,
+                                              PerLeg<bool>& contacts) const {
+  const bool poll = step % contact_every_ == 0;
+  const bool control = step % control_every_ == 0;
+  if (!poll && !control) return std::nullopt;
+  PlantState state = plant.state();
+  if (poll) {
+    PerLeg<double> forces{};
+    for (int leg = 0; leg < kNumLegs; ++leg) forces[leg] = state.legs[leg].foot_normal_force_n;
+    contacts = sensor.poll(state.time_s, forces);
+  }
+  if (!control) return std::nullopt;
+  return state;
+}
+
 const char* to_string(PlantLifecycle lifecycle) {
   switch (lifecycle) {
     case PlantLifecycle::kInactive: return "inactive";
@@ -94,9 +115,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   validate(params);
   validate(settings.contact_sensor);
   const double dt = plant.time_step_s();
-  const double physics_rate = 1.0 / dt;
-  const int control_every = divider(physics_rate, settings.controller.control_rate_hz, "control");
-  const int contact_every = divider(physics_rate, settings.contact_sensor.poll_rate_hz, "contact polling");
+  const RolloutClock clock(plant, settings);
   const long total_steps = std::lround((settings.entrain_s + settings.eval_s) / dt);
   const long eval_start_step = std::lround(settings.entrain_s / dt);
   const double total_time = settings.entrain_s + settings.eval_s;
@@ -104,7 +123,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   CpgController controller(params, settings.controller);
   ContactSensor sensor(settings.contact_sensor, seed);
   CostRecorder recorder(settings.cost);
-  recorder.reserve(static_cast<std::size_t>((total_steps - eval_start_step) / control_every + 2));
+  recorder.reserve(static_cast<std::size_t>((total_steps - eval_start_step) / clock.control_every() + 2));
   RolloutResult result;
   result.params = params;
 
@@ -117,65 +136,56 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   double ended_at_s = -1.0;  // when a fall, a fault or a divergence ended the rollout early
   TimedTrunk previous_trunk;  // the trunk at the previous control tick
   for (long step = 0; step < total_steps; ++step) {
-    const bool poll = step % contact_every == 0;
-    const bool control = step % control_every == 0;
-    if (poll || control) {
-      const PlantState state = plant.state();
-      if (poll) {
-        PerLeg<double> forces{};
-        for (int leg = 0; leg < kNumLegs; ++leg) forces[leg] = state.legs[leg].foot_normal_force_n;
-        contacts = sensor.poll(state.time_s, forces);
+    if (const std::optional<PlantState> sensed = clock.sense(step, plant, sensor, contacts)) {
+      const PlantState& state = *sensed;
+      // A fault or a blow-up first: either makes the state meaningless, and neither is the gait's doing.
+      if (auto fault = plant.fault()) {
+        result.outcome = RolloutOutcome::kPlantFault;
+        result.outcome_message = fmt::format("plant fault at t = {:.3f} s: {}", state.time_s, *fault);
+        ended_at_s = state.time_s;
+        break;
       }
-      if (control) {
-        // A fault or a blow-up first: either makes the state meaningless, and neither is the gait's doing.
-        if (auto fault = plant.fault()) {
-          result.outcome = RolloutOutcome::kPlantFault;
-          result.outcome_message = fmt::format("plant fault at t = {:.3f} s: {}", state.time_s, *fault);
-          ended_at_s = state.time_s;
-          break;
-        }
-        if (const auto why = impossible_motion(previous_trunk, state)) {
-          result.outcome = RolloutOutcome::kDiverged;
-          result.outcome_message = fmt::format("state diverged at t = {:.3f} s: {}", state.time_s, *why);
-          ended_at_s = state.time_s;
-          break;
-        }
-        previous_trunk = {state.time_s, state.trunk};
-        const bool fell = std::abs(state.trunk.pitch_rad) > settings.cost.fall_max_abs_pitch_rad ||
-                          state.trunk.height_m < std::min(settings.cost.fall_min_height_m, 0.5 * start_height);
-        if (fell) {
-          result.outcome = RolloutOutcome::kFell;
-          result.fell = true;
-          result.fall_time_s = state.time_s;
-          ended_at_s = state.time_s;
-          break;
-        }
-        if (commanded && state.time_s >= settings.controller.startup_ramp_s) {
-          for (int leg = 0; leg < kNumLegs; ++leg) {
-            if (output.commands[leg].hip_passive) continue;
-            const double error = output.commands[leg].hip_angle_rad - state.legs[leg].hip_angle_rad;
-            tracking_sq_sum += error * error;
-            ++tracking_samples;
-          }
-        }
-        output = controller.update(contacts);
-        plant.command(output.commands);
-        commanded = true;
-        if (step >= eval_start_step) {
-          CostSample sample;
-          sample.time_s = state.time_s;
-          sample.x_m = state.trunk.x_m;
-          sample.pitch_rad = state.trunk.pitch_rad;
-          sample.contact = contacts;
-          sample.activity = output.activity;
-          for (int leg = 0; leg < kNumLegs; ++leg) {
-            sample.abs_hip_torque_nm[leg] = std::abs(state.legs[leg].hip_torque_nm);
-            sample.abs_knee_torque_nm[leg] = std::abs(state.legs[leg].knee_torque_nm);
-          }
-          recorder.add(sample);
-        }
-        if (trace) trace(TraceSample{state.time_s, &state, &output, &contacts});
+      if (const auto why = impossible_motion(previous_trunk, state)) {
+        result.outcome = RolloutOutcome::kDiverged;
+        result.outcome_message = fmt::format("state diverged at t = {:.3f} s: {}", state.time_s, *why);
+        ended_at_s = state.time_s;
+        break;
       }
+      previous_trunk = {state.time_s, state.trunk};
+      const bool fell = std::abs(state.trunk.pitch_rad) > settings.cost.fall_max_abs_pitch_rad ||
+                        state.trunk.height_m < std::min(settings.cost.fall_min_height_m, 0.5 * start_height);
+      if (fell) {
+        result.outcome = RolloutOutcome::kFell;
+        result.fell = true;
+        result.fall_time_s = state.time_s;
+        ended_at_s = state.time_s;
+        break;
+      }
+      if (commanded && state.time_s >= settings.controller.startup_ramp_s) {
+        for (int leg = 0; leg < kNumLegs; ++leg) {
+          if (output.commands[leg].hip_passive) continue;
+          const double error = output.commands[leg].hip_angle_rad - state.legs[leg].hip_angle_rad;
+          tracking_sq_sum += error * error;
+          ++tracking_samples;
+        }
+      }
+      output = controller.update(contacts);
+      plant.command(output.commands);
+      commanded = true;
+      if (step >= eval_start_step) {
+        CostSample sample;
+        sample.time_s = state.time_s;
+        sample.x_m = state.trunk.x_m;
+        sample.pitch_rad = state.trunk.pitch_rad;
+        sample.contact = contacts;
+        sample.activity = output.activity;
+        for (int leg = 0; leg < kNumLegs; ++leg) {
+          sample.abs_hip_torque_nm[leg] = std::abs(state.legs[leg].hip_torque_nm);
+          sample.abs_knee_torque_nm[leg] = std::abs(state.legs[leg].knee_torque_nm);
+        }
+        recorder.add(sample);
+      }
+      if (trace) trace(TraceSample{state.time_s, &state, &output, &contacts});
     }
     plant.advance(dt);
   }

@@ -3,18 +3,7 @@
 # a failing objective that does not stop a run. Prints 'N passed, N failed' and exits non-zero on failure.
 set -u
 bin="$1"
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-passed=0; failed=0
-check() {  # check NAME CONDITION-COMMAND...
-  local name="$1"; shift
-  if "$@"; then passed=$((passed+1)); else failed=$((failed+1)); echo "FAIL: $name"; fi
-}
-expect_exit() {  # expect_exit CODE PATTERN CMD...: exit code and a stderr pattern
-  local code="$1" pattern="$2"; shift 2
-  "$@" >"$tmp/out" 2>"$tmp/err"; local got=$?
-  [ "$got" -eq "$code" ] && grep -q -- "$pattern" "$tmp/err" || { echo "  got exit $got, stderr: $(head -c 300 "$tmp/err")"; return 1; }
-}
+source "$(dirname "$0")/cli_lib.sh"
 
 # Bad input: exit 2 and a message naming the field (and file:line for YAML).
 check "did you mean status" expect_exit 2 "unknown command 'statsu'; did you mean 'cpgmatch status'?" "$bin" statsu

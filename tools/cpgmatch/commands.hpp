@@ -32,6 +32,8 @@ void add_sim2real_command(CLI::App& app);
 void add_estop_command(CLI::App& app);
 // `study show` (under `study`) and `rerun`: a stored study's spec, and a stored trial re-run from it.
 void add_spec_commands(CLI::App& app, CLI::App* study);
+// `calibrate`: model values fitted to measured rollout traces.
+void add_calibrate_command(CLI::App& app);
 
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,

@@ -24,7 +24,7 @@ struct LegState {
   double knee_flexion_rad = 0.0;
   double hip_torque_nm = 0.0;      // torque the hip motor produced
   double knee_torque_nm = 0.0;     // torque the knee motor produced
-  double foot_normal_force_n = 0.0;
+  double foot_normal_force_n = 0.0;  // as the foot sensor reports it (a simulated FootTile may lag)
 };
 
 struct TrunkState {

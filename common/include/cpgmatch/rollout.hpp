@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "cpgmatch/contact_sensor.hpp"
@@ -56,6 +57,23 @@ struct TraceSample {
   const PerLeg<bool>* contacts;
 };
 using TraceSink = std::function<void(const TraceSample&)>;
+
+// The rollout's clock: the plant's physics step is the base rate; the contact sensor is polled and the
+// controller runs every so many steps. run_rollout and the calibration's replay both step a plant through
+// it, so a replay samples and commands exactly when the rollout did.
+class RolloutClock {
+ public:
+  // Throws InputError when the control or polling rate does not divide the physics rate.
+  RolloutClock(const Plant& plant, const RolloutSettings& settings);
+  // At physics step `step` (before advancing it): polls `sensor` into `contacts` when it is due, and returns
+  // the plant's state when the controller runs at this step (nothing otherwise).
+  std::optional<PlantState> sense(long step, const Plant& plant, ContactSensor& sensor, PerLeg<bool>& contacts) const;
+  int control_every() const { return control_every_; }
+
+ private:
+  int control_every_ = 1;
+  int contact_every_ = 1;
+};
 
 // Runs a rollout on `plant`. `seed` drives the contact-sensor noise. Never throws for a bad gait: a fall
 // ends the rollout with the fall cost (outcome kFell); a non-finite plant state ends it as kDiverged and a

@@ -66,7 +66,7 @@ MortiModel load_morti_model(const std::string& path) { return parse_morti_model(
 MortiModel parse_morti_model(const YamlReader& r) {
   MortiModel m;
   r.reject_unknown_keys({"trunk", "femur", "shank", "foot", "leg", "knee_spring", "biarticular_spring",
-                         "hip_motor", "knee_motor", "contact", "simulation"});
+                         "hip_motor", "knee_motor", "contact", "foot_sensor", "simulation"});
   if (r.has("trunk")) {
     const YamlReader t = r.child("trunk");
     t.reject_unknown_keys({"mass_kg", "length_m", "hip_spacing_m", "height_m", "depth_m"});
@@ -111,6 +111,12 @@ MortiModel parse_morti_model(const YamlReader& r) {
     m.contact.friction = positive(c, "friction", m.contact.friction);
     m.contact.stiffness_n_per_m = positive(c, "stiffness_n_per_m", m.contact.stiffness_n_per_m);
     m.contact.damping_n_s_per_m = positive(c, "damping_n_s_per_m", m.contact.damping_n_s_per_m);
+  }
+  if (r.has("foot_sensor")) {
+    const YamlReader f = r.child("foot_sensor");
+    f.reject_unknown_keys({"sensitivity", "time_constant_s"});
+    m.foot_sensor.sensitivity = positive(f, "sensitivity", m.foot_sensor.sensitivity);
+    m.foot_sensor.time_constant_s = non_negative(f, "time_constant_s", m.foot_sensor.time_constant_s);
   }
   if (r.has("simulation")) {
     const YamlReader s = r.child("simulation");

@@ -137,6 +137,7 @@ struct OdePlant::Impl {
     double hip_torque = 0.0;
     double knee_torque = 0.0;
     double normal_force = 0.0;
+    double sensed_force = 0.0;  // what the FootTile reports (MortiModel::foot_sensor)
   };
 
   MortiModel model;
@@ -412,6 +413,16 @@ struct OdePlant::Impl {
     }
   }
 
+  // The FootTile's reading: the contact force scaled by its sensitivity and lagged by its time constant
+  // (implicit Euler, exact at tau = 0 and stable for any tau).
+  void update_foot_sensors() {
+    const double tau = model.foot_sensor.time_constant_s;
+    const double blend = dt / (tau + dt);
+    for (auto& leg : legs) {
+      leg.sensed_force += blend * (model.foot_sensor.sensitivity * leg.normal_force - leg.sensed_force);
+    }
+  }
+
   // Keeps a body in the plane z = 0 turning about z only: removes the round-off that the solver leaves
   // out of the plane (the joints do not constrain it, see PlanarJoint; Plane2D lets the trunk drift too).
   static void project_onto_plane(dBodyID body) {
@@ -447,6 +458,7 @@ struct OdePlant::Impl {
     belt_travel += belt_speed() * dt;
     dWorldStep(world, dt);
     read_contact_forces();
+    update_foot_sensors();
     dJointGroupEmpty(contact_group);
     project_onto_plane();
     time += dt;
@@ -483,7 +495,7 @@ PlantState OdePlant::state() const {
     s.legs[i].knee_flexion_rad = m.knee_flexion(leg) - m.model.knee_stand_flexion_rad;
     s.legs[i].hip_torque_nm = leg.hip_torque;
     s.legs[i].knee_torque_nm = leg.knee_torque;
-    s.legs[i].foot_normal_force_n = leg.normal_force;
+    s.legs[i].foot_normal_force_n = leg.sensed_force;
   }
   return s;
 }

@@ -41,6 +41,15 @@ struct ContactModel {
   double damping_n_s_per_m = 150.0;
 };
 
+// The FootTile as a force sensor: what the robot reports as a foot's normal force. An ideal sensor
+// (sensitivity 1, no lag) reports the contact force itself; a worn or soft polyurethane dome passes less of
+// the force to its barometer (sensitivity < 1) and lags it (viscoelastic creep of the dome plus the
+// barometer's oversampling filter, a first-order lag), so the rollout's threshold is crossed later.
+struct FootSensorModel {
+  double sensitivity = 1.0;      // reported force / contact force
+  double time_constant_s = 0.0;  // first-order lag of the reported force, seconds (0: none)
+};
+
 struct MortiModel {
   double trunk_mass_kg = 3.0;
   double trunk_length_m = 0.48;   // box length; hips sit at +-hip_spacing/2
@@ -63,6 +72,7 @@ struct MortiModel {
   MotorModel knee_motor{4.0, 12.0, 0.0, 0.0};
   double knee_motor_bandwidth_per_s = 60.0;  // knee motor position loop: speed = bandwidth * error
   ContactModel contact;
+  FootSensorModel foot_sensor;
   double physics_rate_hz = 1000.0;
   double gravity_m_s2 = 9.81;
 

@@ -1,0 +1,18 @@
+// Writes a calibrated model: the start model's YAML text, its comments and sources kept, with each fitted
+// value replaced by its estimate and, beside it, the standard deviation and the misfit before and after.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "cpgmatch/calibration/calibration.hpp"
+
+namespace cpgmatch::calibration {
+
+// `model_text` is the start model's YAML (`model_source` names it in messages); `trace_sources` the traces
+// fitted. Throws InputError when a fitted value's entry is not on one line (`key: {value: ...}` or
+// `key: number`), which is the only form it rewrites. The result loads with sim::parse_morti_model.
+std::string calibrated_model_text(const std::string& model_text, const std::string& model_source,
+                                  const CalibrationResult& result, const std::vector<std::string>& trace_sources);
+
+}  // namespace cpgmatch::calibration

@@ -1,0 +1,177 @@
+// `cpgmatch calibrate`: fits model values to measured rollout traces (services/calibration) and writes the
+// calibrated model. Traces come from CSV files for now (`cpgmatch rollout --trace`, or a robot's); the
+// store of a study's hardware traces will be another source of the same MeasuredTrace.
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "cpgmatch/calibration/calibrated_model.hpp"
+#include "cpgmatch/calibration/calibration.hpp"
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/yaml_reader.hpp"
+#include "flag_checks.hpp"
+
+namespace cpgmatch::cli {
+namespace {
+
+namespace cal = cpgmatch::calibration;
+
+struct CalibrateOptions {
+  std::vector<std::string> traces;
+  std::string params_file;
+  std::string values;  // a.b,c.d
+  std::string out;
+  std::string model_file;
+  std::string settings_file;
+  std::string terrain = "flat";
+  double treadmill_mps = 0.0;
+  std::uint64_t seed = 0;
+  double window_s = 3.0;
+  double contact_weight = 1.0;
+  double force_scale = 2.0;
+  double robust_rms = 3.0;
+  double relative_step = 0.02;
+  int max_iterations = 25;
+  int grid_points = 0;
+  std::vector<double> scan;
+  bool json = false;
+};
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(fmt::format("--model {}: cannot open", path));
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+nlohmann::json rms_json(const cal::ChannelRms& r) {
+  return {{"knee_rad", r.knee_rad}, {"hip_rad", r.hip_rad}, {"pitch_rad", r.pitch_rad}, {"speed_mps", r.speed_mps},
+          {"contact_mismatch", r.contact_mismatch}, {"foot_force_n", r.foot_force_n}};
+}
+
+nlohmann::json result_json(const cal::CalibrationResult& r, const std::string& out) {
+  nlohmann::json values = nlohmann::json::array();
+  for (const auto& v : r.values) {
+    values.push_back({{"name", v.name}, {"unit", v.unit}, {"initial", v.initial}, {"estimate", v.estimate},
+                      {"standard_deviation", std::isfinite(v.standard_deviation) ? nlohmann::json(v.standard_deviation)
+                                                                                 : nlohmann::json(nullptr)},
+                      {"lower", v.lower}, {"upper", v.upper}, {"at_bound", v.at_bound}});
+  }
+  return {{"values", values}, {"cost_before", r.cost_before}, {"cost_after", r.cost_after},
+          {"rms_before", rms_json(r.rms_before)}, {"rms_after", rms_json(r.rms_after)},
+          {"residuals", r.residual_count}, {"iterations", r.iterations}, {"replays", r.simulations},
+          {"solver_start", r.solver_start}, {"wall_time_s", r.wall_time_s}, {"converged", r.converged}, {"solver", r.solver_report}, {"out", out}};
+}
+
+void print_result(const cal::CalibrationResult& r, const std::string& out) {
+  fmt::print("calibrated {} value(s) in {:.1f} s ({} iterations, {} replays, {} residuals): {}\n", r.values.size(),
+             r.wall_time_s, r.iterations, r.simulations, r.residual_count, r.solver_report);
+  for (const auto& v : r.values) {
+    fmt::print("  {:<42} {:>10.5g} -> {:>10.5g} +- {:.3g} {}{}\n", v.name, v.initial, v.estimate, v.standard_deviation,
+               v.unit, v.at_bound ? "  (at its physical bound)" : "");
+  }
+  fmt::print("  cost {:.6g} -> {:.6g}; RMS knee {:.4f} -> {:.4f} rad, hip {:.4f} -> {:.4f} rad, speed {:.3f} -> "
+             "{:.3f} m/s, contact mismatch {:.1f}% -> {:.1f}%, foot force {:.2f} -> {:.2f} N\n",
+             r.cost_before, r.cost_after, r.rms_before.knee_rad, r.rms_after.knee_rad, r.rms_before.hip_rad,
+             r.rms_after.hip_rad, r.rms_before.speed_mps, r.rms_after.speed_mps, 100 * r.rms_before.contact_mismatch,
+             100 * r.rms_after.contact_mismatch, r.rms_before.foot_force_n, r.rms_after.foot_force_n);
+  fmt::print("  wrote {}\n", out);
+}
+
+// The cost along each fitted value's axis through the start model (the others held): is the objective
+// smooth enough near the answer for a gradient method?
+void print_scan(cal::Calibration& calibration, const sim::MortiModel& start, const std::vector<const cal::ModelValue*>& values,
+                const std::vector<double>& factors) {
+  std::vector<double> x0;
+  for (const auto* v : values) x0.push_back(v->get(start));
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    fmt::print("scan {} (start {:.5g} {}):\n", values[i]->name, x0[i], values[i]->unit);
+    for (double f : factors) {
+      std::vector<double> x = x0;
+      x[i] = x0[i] * f;
+      fmt::print("  x{:<6.3f} {:>10.5g}  cost {:.6g}\n", f, x[i], calibration.cost_at(x));
+    }
+  }
+}
+
+}  // namespace
+
+void add_calibrate_command(CLI::App& app) {
+  auto o = std::make_shared<CalibrateOptions>();
+  CLI::App* cmd = app.add_subcommand("calibrate", "fit model values to measured rollout traces (Ceres)");
+  cmd->add_option("--trace", o->traces, "a rollout trace CSV (`cpgmatch rollout --trace`), repeatable")->required();
+  cmd->add_option("--params-file", o->params_file, "the CPG parameters the traces were made with (YAML)")->required();
+  cmd->add_option("--params", o->values, "model values to fit, comma-separated (e.g. knee_spring.stiffness_nm_per_rad)")
+      ->required();
+  cmd->add_option("--out", o->out, "where to write the calibrated model YAML")->required();
+  cmd->add_option("--model", o->model_file, "start model YAML (default: configs/model/morti.yaml)");
+  cmd->add_option("--settings", o->settings_file, "rollout settings the traces were made with (default: configs/rollout.yaml)");
+  cmd->add_option("--terrain", o->terrain, "the ground the traces were made on: flat | step:H@D | rough:A | shift:H@T");
+  cmd->add_option("--treadmill", o->treadmill_mps, "treadmill belt speed of the traces, m/s")->check(finite_in(-5.0, 5.0, "m/s"));
+  cmd->add_option("--seed", o->seed, "seed of the replays' contact-sensor noise")->check(whole_non_negative());
+  // A replay drifts from the robot as contact events accumulate: a few seconds from the start fit best.
+  cmd->add_option("--window", o->window_s, "seconds of each trace fitted, from its start")->check(finite_in(0.1, 60.0, "s"));
+  cmd->add_option("--contact-weight", o->contact_weight, "weight of a tick's contact mismatch (0: contacts left out)")
+      ->check(finite_in(0.0, 100.0, ""));
+  cmd->add_option("--force-scale", o->force_scale, "foot-force misfit counted as one unit, N (0: forces left out)")
+      ->check(finite_in(0.0, 1000.0, "N"));
+  cmd->add_option("--robust-rms", o->robust_rms, "Huber threshold: a tick's residual RMS, in scales")->check(finite_in(0.1, 1000.0, ""));
+  cmd->add_option("--relative-step", o->relative_step, "central-difference step relative to each value")
+      ->check(finite_in(1e-4, 0.2, ""));
+  cmd->add_option("--max-iterations", o->max_iterations, "solver iterations at most")->check(CLI::Range(1, 500));
+  cmd->add_option("--grid", o->grid_points, "first try this many points across each value's physical range (0: none)")
+      ->check(CLI::Range(0, 100));
+  cmd->add_option("--scan", o->scan, "before fitting, print the cost at these multiples of each start value")
+      ->check(finite_in(0.01, 100.0, ""));
+  cmd->add_flag("--json", o->json, "print exactly one JSON object");
+  cmd->callback([o] {
+    const std::vector<const cal::ModelValue*> values = [&] {
+      try {
+        return cal::parse_model_value_list(o->values);
+      } catch (const InputError& e) {
+        throw InputError(fmt::format("--params: {}", e.what()));
+      }
+    }();
+    const std::string model_path = o->model_file.empty() ? sim::default_model_path() : o->model_file;
+    const std::string model_text = read_text(model_path);
+    const sim::MortiModel start = sim::parse_morti_model(YamlReader::from_string(model_text, model_path));
+    const CpgParameters params = load_parameters(o->params_file);
+    const RolloutSettings settings =
+        load_rollout_settings(o->settings_file.empty() ? sim::default_rollout_settings_path() : o->settings_file);
+    sim::TerrainSpec terrain = sim::TerrainSpec::parse(o->terrain);
+    terrain.treadmill_speed_mps = o->treadmill_mps;
+    std::vector<cal::CalibrationTrace> traces;
+    for (const auto& path : o->traces) {
+      traces.push_back(cal::prepare_trace(cal::read_trace_csv(path), params, settings, terrain, o->seed, o->window_s));
+    }
+    cal::CalibrationOptions options;
+    options.values = values;
+    options.scales.contact_mismatch = o->contact_weight;
+    options.scales.foot_force_n = o->force_scale;
+    options.robust_rms = o->robust_rms;
+    options.relative_step = o->relative_step;
+    options.max_iterations = o->max_iterations;
+    options.grid_points = o->grid_points;
+    cal::Calibration calibration(start, std::move(traces), options);
+    if (!o->scan.empty() && !o->json) print_scan(calibration, start, values, o->scan);
+    const cal::CalibrationResult result = calibration.solve();
+    const std::string text = cal::calibrated_model_text(model_text, model_path, result, o->traces);
+    sim::parse_morti_model(YamlReader::from_string(text, o->out));  // what is written must load
+    std::ofstream out(o->out);
+    if (!(out << text)) throw InputError(fmt::format("--out {}: cannot write", o->out));
+    if (o->json) {
+      std::cout << result_json(result, o->out).dump() << std::endl;
+    } else {
+      print_result(result, o->out);
+    }
+  });
+}
+
+}  // namespace cpgmatch::cli
