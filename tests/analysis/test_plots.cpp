@@ -49,6 +49,7 @@ StudyTrials synthetic_study(int seed) {
     t.mean_speed_mps = 0.1 + 0.01 * i;
     t.normalized_torque = 1.0 + 2.0 / (i + 1);
     t.summed_torque_nm = t.normalized_torque * t.mean_speed_mps;
+    t.energy.electrical_cost_of_transport = 0.5 + 1.0 / (i + 1);
     s.trials.push_back(t);
   }
   return s;
@@ -68,8 +69,16 @@ class Plots : public ::testing::Test {
 
 TEST_F(Plots, StudyFigures) {
   const auto files = plot_study(synthetic_study(0), dir_);
+  EXPECT_EQ(files.size(), 8u);
+  for (const char* stem : {"fig5a", "fig5b", "fig6", "fig6_cot"}) expect_figure(dir_, stem);
+}
+
+TEST_F(Plots, AStudyWithoutEnergyDataDrawsFig6Alone) {
+  StudyTrials s = synthetic_study(0);
+  for (auto& t : s.trials) t.energy = EnergyMeasures{};
+  const auto files = plot_study(s, dir_);
   EXPECT_EQ(files.size(), 6u);
-  for (const char* stem : {"fig5a", "fig5b", "fig6"}) expect_figure(dir_, stem);
+  EXPECT_FALSE(fs::exists(dir_ / "fig6_cot.png"));
 }
 
 TEST_F(Plots, TraceFigure) {

@@ -60,7 +60,7 @@ sleep 3  # the optimizer drops the stopped workers
 start_worker future --slots 1 --objective-version 99
 sed -i 's/^name: .*/name: version-mismatch/' "$WORK/s.yaml"
 id3=$(cli study submit --config "$WORK/s.yaml" --timeout 30) || fail "submit failed"
-waits() { [[ $(json_field "$(state_json "$id3")" message) == *"worker future refused it"*"objective version 1; this worker computes version 99"* ]]; }
+waits() { [[ $(json_field "$(state_json "$id3")" message) == *"worker future refused it"*"objective version 2; this worker computes version 99"* ]]; }
 wait_until 30 waits || fail "the study does not say why it waits: $(state_json "$id3")"
 [[ $(json_field "$(state_json "$id3")" completed) == 0 ]] || fail "a refused candidate was counted"
 refusals=$(sql "$WORK/s.db" "select count(*) from attempts where study_id=$id3 and outcome='refused'")

@@ -69,11 +69,28 @@ std::vector<TableRow> report_rows(const nlohmann::json& report) {
       {"  J_feedback vs summed torque", "correlations.feedback_vs_summed_torque", 3},
       {"  fitted exponent of torque ~ speed^b", "correlations.torque_speed_exponent", 3},
       {"J_contact, J_periodicity < 0.1 (J_feedback + J_distance)", "", 0},
-      {"  fraction, J_contact", "small_terms.contact", 3},
-      {"  fraction, J_periodicity", "small_terms.periodicity", 3},
-      {"  fraction, both", "small_terms.both", 3},
+      {"  all non-fallen (bad gaits pooled in): J_contact", "small_terms.contact", 3},
+      {"  all non-fallen: J_periodicity", "small_terms.periodicity", 3},
+      {"  all non-fallen: both", "small_terms.both", 3},
+      {"  good gaits (best quartile by cost): rollouts", "small_terms.best_quartile.rollouts", 0},
+      {"  good gaits: J_contact", "small_terms.best_quartile.contact", 3},
+      {"  good gaits: J_periodicity", "small_terms.best_quartile.periodicity", 3},
+      {"  good gaits: both", "small_terms.best_quartile.both", 3},
+      {"what the motors spend (non-fallen; rho: Spearman with J_feedback)", "", 0},
+      {"  eq. 1: knees' steady torque, share of its numerator", "eq1.knee_steady_share_median", 3},
   };
   rows.insert(rows.end(), rest.begin(), rest.end());
+  for (const auto& m : energy_measures()) {
+    const std::string p = fmt::format("measures.{}.", m.key);
+    rows.push_back({fmt::format("  {}", m.label), "", 0});
+    rows.push_back({"    median, initial design", p + "initial_median", 3});
+    rows.push_back({"    median, last rollouts", p + "late_median", 3});
+    rows.push_back({"    ratio last / initial", p + "ratio", 3});
+    rows.push_back({"    rho", p + "rho_feedback", 3});
+    rows.push_back({"    rho at equal speed (log residual)", p + "rho_feedback_residual", 3});
+    rows.push_back({"    rho at equal speed (partial)", p + "rho_feedback_partial", 3});
+    rows.push_back({"    exponent b of measure ~ speed^b", p + "speed_exponent", 3});
+  }
   if (report.contains("recommended") && report["recommended"].is_object()) {
     rows.push_back({"recommended: the rollout with the lowest GP posterior mean", "", 0});
     rows.push_back({"  rollout", "recommended.rollout", 0});
@@ -114,6 +131,7 @@ std::string format_table(const ScienceReport& r) {
     out += fmt::format("{:<56} {:>12}  {}\n", row.label, format_value(json_at(j, row.path), row.decimals),
                        paper.is_null() ? "" : format_value(paper, row.decimals));
   }
+  out += eq1_sentence(r.knee_steady_share_median) + "\n";
   if (!r.best_params.empty()) {
     // The study's answer (best_params.yaml): the recommendation when there is one.
     out += r.recommendation ? "recommended parameters:" : "best parameters:";

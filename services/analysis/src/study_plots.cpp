@@ -62,35 +62,44 @@ std::string fig5b(const fs::path& data) {
       kLogFloor, kLogFloor, d, kLogFloor);
 }
 
-// Fig. 6: rollouts sorted by cost (best first); torque of those that walked, a shaded bar for each fall.
-std::string fig6(const StudyTrials& s, const fs::path& data) {
+// Rollouts sorted by cost (best first) into `data`: rank, rollout, cost, eq. 1 and electrical cost of
+// transport (NaN for falls). Returns the gnuplot objects that shade each fall's bar.
+std::string write_sorted_by_cost(const StudyTrials& s, const fs::path& data) {
   std::vector<const Trial*> ran;
   for (const auto& t : s.trials) {
     if (t.ok && std::isfinite(t.cost)) ran.push_back(&t);
   }
   std::stable_sort(ran.begin(), ran.end(), [](const Trial* a, const Trial* b) { return a->cost < b->cost; });
   std::string falls;
-  {
-    std::ofstream out(data);
-    out << "# rank_by_cost rollout cost normalized_torque(non-fallen)\n";
-    for (std::size_t i = 0; i < ran.size(); ++i) {
-      const Trial& t = *ran[i];
-      out << fmt::format("{} {} {} {}\n", i + 1, t.trial_id + 1, num(t.cost), t.fell ? "NaN" : num(t.normalized_torque));
-      if (t.fell) {
-        falls += fmt::format("set object rect from {},graph 0 to {},graph 1 fc rgb '#d62728' fs transparent solid 0.25 noborder behind\n",
-                             i + 0.5, i + 1.5);
-      }
+  std::ofstream out(data);
+  out << "# rank_by_cost rollout cost normalized_torque electrical_cost_of_transport (both NaN for falls)\n";
+  for (std::size_t i = 0; i < ran.size(); ++i) {
+    const Trial& t = *ran[i];
+    out << fmt::format("{} {} {} {} {}\n", i + 1, t.trial_id + 1, num(t.cost), t.fell ? "NaN" : num(t.normalized_torque),
+                       t.fell ? "NaN" : num(t.energy.electrical_cost_of_transport));
+    if (t.fell) {
+      falls += fmt::format("set object rect from {},graph 0 to {},graph 1 fc rgb '#d62728' fs transparent solid 0.25 noborder behind\n",
+                           i + 0.5, i + 1.5);
     }
   }
+  return falls;
+}
+
+// Fig. 6 and its energy companion: one column of the sorted data over the rank, with a trend and the falls.
+struct SortedFigure {
+  int column;
+  std::string title, ylabel, key;
+};
+std::string sorted_by_cost_figure(const SortedFigure& f, const std::string& falls, const fs::path& data) {
   return fmt::format(
       "set datafile missing 'NaN'\nset grid\nset key top left\n"
-      "set logscale y\n"  // torques of bad gaits are orders of magnitude above good ones
-      "set title 'Fig. 6: normalised torque of rollouts sorted by cost (log scale; shaded: falls, no torque)'\n"
-      "set xlabel 'rollouts sorted by cost (1 = best)'\nset ylabel 'normalised torque, N m / (m/s)'\n"
-      "{}plot {} u 1:4 w p pt 7 ps 0.6 lc rgb '#1f77b4' t 'normalised torque (eq. 1)', "
-      "'' u 1:4 smooth bezier lw 2 lc rgb 'black' t 'trend', "
+      "set logscale y\n"  // bad gaits spend orders of magnitude more than good ones
+      "set title '{}'\n"
+      "set xlabel 'rollouts sorted by cost (1 = best)'\nset ylabel '{}'\n"
+      "{}plot {} u 1:{} w p pt 7 ps 0.6 lc rgb '#1f77b4' t '{}', "
+      "'' u 1:{} smooth bezier lw 2 lc rgb 'black' t 'trend', "
       "keyentry w boxes fs transparent solid 0.25 lc rgb '#d62728' t 'fell'",
-      falls, gnuplot_quote(data));
+      f.title, f.ylabel, falls, gnuplot_quote(data), f.column, f.key, f.column);
 }
 
 }  // namespace
@@ -113,8 +122,19 @@ FigureFiles plot_study(const StudyTrials& s, const fs::path& out_dir) {
   FigureFiles files;
   for (const auto& f : render_figure(dir, "fig5a", fig5a(s, trials), 1000, 600)) files.push_back(f);
   for (const auto& f : render_figure(dir, "fig5b", fig5b(trials), 1000, 600)) files.push_back(f);
-  const std::string body6 = fig6(s, sorted);
-  for (const auto& f : render_figure(dir, "fig6", body6, 1000, 600)) files.push_back(f);
+  const std::string falls = write_sorted_by_cost(s, sorted);
+  const SortedFigure fig6{4, "Fig. 6: normalised torque of rollouts sorted by cost (log scale; shaded: falls, no torque)",
+                          "normalised torque, N m / (m/s)", "normalised torque (eq. 1)"};
+  for (const auto& f : render_figure(dir, "fig6", sorted_by_cost_figure(fig6, falls, sorted), 1000, 600)) files.push_back(f);
+  // Beside Fig. 6: what the motors drew (energy.hpp), per weight and metre, for the same order. A store from
+  // before energy has none to draw (gnuplot refuses a plot without a point).
+  const bool has_energy = std::any_of(s.trials.begin(), s.trials.end(), [](const Trial& t) {
+    return t.walked() && std::isfinite(t.energy.electrical_cost_of_transport);
+  });
+  if (!has_energy) return files;
+  const SortedFigure cot{5, "Beside Fig. 6: electrical cost of transport of rollouts sorted by cost (log scale; shaded: falls)",
+                         "electrical cost of transport E / (m g d)", "electrical cost of transport (DC-motor model)"};
+  for (const auto& f : render_figure(dir, "fig6_cot", sorted_by_cost_figure(cot, falls, sorted), 1000, 600)) files.push_back(f);
   return files;
 }
 

@@ -13,8 +13,9 @@ namespace cpgmatch::analysis {
 using FigureFiles = std::vector<std::filesystem::path>;
 
 // Fig. 5a (current minimum of the cost over rollouts, falls marked), Fig. 5b (every cost term per
-// rollout) and Fig. 6 (normalised torque of non-fallen rollouts, sorted by cost, falls shaded):
-// fig5a/fig5b/fig6 .png/.svg in out_dir. Throws PlotError.
+// rollout) and Fig. 6 (normalised torque of non-fallen rollouts, sorted by cost, falls shaded), with
+// fig6_cot beside it (their electrical cost of transport in the same order): fig5a/fig5b/fig6/fig6_cot
+// .png/.svg in out_dir. Throws PlotError.
 FigureFiles plot_study(const StudyTrials& study, const std::filesystem::path& out_dir);
 
 // Fig. 4 from a rollout trace CSV (`cpgmatch rollout --trace`): the four legs' coupled phases, FL's hip
