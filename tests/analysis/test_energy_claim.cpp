@@ -59,8 +59,8 @@ TEST(EnergyClaim, AtEqualSpeedTheSignOfMatchingShowsThroughASpeedThatScramblesTh
   EXPECT_LT(work.rho_feedback_residual, -0.95);  // the test can say "no": work rises as feedback falls
   EXPECT_LT(work.rho_feedback_partial, -0.9);
   // A measure the study has no data for is NaN, never a number that could pass for a result.
-  EXPECT_EQ(measure(r, "mechanical_cost_of_transport").samples, 0);
-  EXPECT_TRUE(std::isnan(measure(r, "mechanical_cost_of_transport").rho_feedback));
+  EXPECT_EQ(measure(r, "signed_torque_per_speed").samples, 0);
+  EXPECT_TRUE(std::isnan(measure(r, "signed_torque_per_speed").rho_feedback));
 }
 
 TEST(EnergyClaim, LearningRatioIsTheLateMedianOverTheInitialDesignsAndIgnoresFalls) {

@@ -28,8 +28,6 @@ const std::vector<EnergyMeasureInfo>& energy_measures() {
       {"signed_torque_per_speed", "sum of |signed mean torque| / speed, N m/(m/s)",
        [](const Trial& t) { return t.energy.signed_torque_per_speed; }},
       {"positive_work_per_m", "positive mechanical work, J/m", [](const Trial& t) { return t.energy.positive_work_j_per_m; }},
-      {"mechanical_cost_of_transport", "mechanical cost of transport",
-       [](const Trial& t) { return t.energy.mechanical_cost_of_transport; }},
       {"electrical_cost_of_transport", "electrical cost of transport (DC-motor model)",
        [](const Trial& t) { return t.energy.electrical_cost_of_transport; }},
   };
@@ -86,7 +84,7 @@ std::string eq1_sentence(double share) {
   return fmt::format(
       "Eq. 1 (sum of mean |torque| / speed) is printed as the paper defines it; {:.0f}% of its numerator (median) is "
       "the knees' steady torque of carrying the body, which does no work, and it falls as 1/speed like J_distance: "
-      "the measures below (signed torque, positive work, cost of transport) separate what a gait spends.",
+      "the energy measures in the table (signed torque, positive work, cost of transport) separate what a gait spends.",
       100.0 * share);
 }
 

@@ -7,6 +7,15 @@
 
 namespace cpgmatch::analysis {
 
+namespace {
+
+// Rows whose paths all lie under one prefix (a window, a measure).
+void append_under(std::vector<TableRow>& rows, const std::string& prefix, const std::vector<TableRow>& relative) {
+  for (const TableRow& row : relative) rows.push_back({row.label, prefix + row.path, row.decimals});
+}
+
+}  // namespace
+
 std::vector<TableRow> report_rows(const nlohmann::json& report) {
   std::vector<TableRow> rows = {
       {"falls", "", 0},
@@ -27,13 +36,14 @@ std::vector<TableRow> report_rows(const nlohmann::json& report) {
     rows.push_back({fmt::format("rollouts {}-{} (non-fallen for all but falls)", windows[i]["first"].get<int>(),
                                 windows[i]["last"].get<int>()),
                     "", 0});
-    rows.push_back({"  rollouts", w + "rollouts", 0});
-    rows.push_back({"  falls", w + "falls", 0});
-    rows.push_back({"  J_feedback mean", w + "feedback_mean", 3});
-    rows.push_back({"  J_feedback median", w + "feedback_median", 3});
-    rows.push_back({"  normalised torque median, N m/(m/s)", w + "normalized_torque_median", 2});
-    rows.push_back({"  summed torque median, N m", w + "summed_torque_median_nm", 3});
-    rows.push_back({"  mean speed, m/s", w + "speed_mean_mps", 3});
+    append_under(rows, w,
+                 {{"  rollouts", "rollouts", 0},
+                  {"  falls", "falls", 0},
+                  {"  J_feedback mean", "feedback_mean", 3},
+                  {"  J_feedback median", "feedback_median", 3},
+                  {"  normalised torque median, N m/(m/s)", "normalized_torque_median", 2},
+                  {"  summed torque median, N m", "summed_torque_median_nm", 3},
+                  {"  mean speed, m/s", "speed_mean_mps", 3}});
   }
   const std::vector<TableRow> rest = {
       {"learning: last rollouts vs initial design (non-fallen)", "", 0},
@@ -81,15 +91,15 @@ std::vector<TableRow> report_rows(const nlohmann::json& report) {
   };
   rows.insert(rows.end(), rest.begin(), rest.end());
   for (const auto& m : energy_measures()) {
-    const std::string p = fmt::format("measures.{}.", m.key);
     rows.push_back({fmt::format("  {}", m.label), "", 0});
-    rows.push_back({"    median, initial design", p + "initial_median", 3});
-    rows.push_back({"    median, last rollouts", p + "late_median", 3});
-    rows.push_back({"    ratio last / initial", p + "ratio", 3});
-    rows.push_back({"    rho", p + "rho_feedback", 3});
-    rows.push_back({"    rho at equal speed (log residual)", p + "rho_feedback_residual", 3});
-    rows.push_back({"    rho at equal speed (partial)", p + "rho_feedback_partial", 3});
-    rows.push_back({"    exponent b of measure ~ speed^b", p + "speed_exponent", 3});
+    append_under(rows, fmt::format("measures.{}.", m.key),
+                 {{"    median, initial design", "initial_median", 3},
+                  {"    median, last rollouts", "late_median", 3},
+                  {"    ratio last / initial", "ratio", 3},
+                  {"    rho", "rho_feedback", 3},
+                  {"    rho at equal speed (log residual)", "rho_feedback_residual", 3},
+                  {"    rho at equal speed (partial)", "rho_feedback_partial", 3},
+                  {"    exponent b of measure ~ speed^b", "speed_exponent", 3}});
   }
   if (report.contains("recommended") && report["recommended"].is_object()) {
     rows.push_back({"recommended: the rollout with the lowest GP posterior mean", "", 0});

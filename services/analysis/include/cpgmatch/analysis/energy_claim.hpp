@@ -23,7 +23,8 @@ struct EnergyMeasureInfo {
   const char* label;  // for tables and figures, with its unit
   double (*of)(const Trial&);
 };
-// eq. 1; Σ |signed mean τ| / v; positive work per metre; mechanical and electrical cost of transport.
+// eq. 1; Σ |signed mean τ| / v; positive work per metre; electrical cost of transport. (The mechanical cost
+// of transport is positive work per metre / (m g): the same ranks and ratio, so it is not tested twice.)
 const std::vector<EnergyMeasureInfo>& energy_measures();
 
 struct MeasureStats {
