@@ -97,6 +97,7 @@ def main():
     seeds = sorted((d for d in os.listdir(folder) if d.startswith("seed-")), key=lambda d: int(d[5:]))
     rho_fb_speed, windows, falls_initial, best_speed, best_at_bound, initial_speed, initial_speed_max = [], [], [], [], [], [], []
     bound_counts = {k: 0 for k in BOUNDS}
+    rho_speed_contact, clean_fastest, fast, fast_stumbling = [], [], 0, 0
     duty = []  # (commanded, measured, speed, best?)
     for n, seed in enumerate(seeds):
         rows = load(os.path.join(folder, seed))
@@ -104,6 +105,12 @@ def main():
         fb = [r["result"]["terms"]["feedback"] for r in ok]
         v = [r["result"]["mean_speed_mps"] for r in ok]
         rho_fb_speed.append(spearman(fb, v))
+        # Fast gaits and clean contacts: J_contact counts contact phases beyond the two of a clean step.
+        contact = [r["result"]["terms"]["contact"] for r in ok]
+        rho_speed_contact.append(spearman(v, contact))
+        clean_fastest.append(max((s_ for s_, c in zip(v, contact) if c < 0.05), default=math.nan))
+        fast += sum(1 for s_ in v if s_ > 0.45)
+        fast_stumbling += sum(1 for s_, c in zip(v, contact) if s_ > 0.45 and c >= 0.3)
         windows.append([statistics.fmean([r["result"]["mean_speed_mps"] for r in ok if a <= r["index"] + 1 <= b] or [math.nan])
                         for a, b in WINDOWS])
         falls_initial.append(sum(1 for r in rows if r["index"] < 15 and r["result"].get("fell")))
@@ -129,6 +136,8 @@ def main():
               + " / ".join(f"{w:.2f}" for w in windows[-1])
               + f"; initial falls {falls_initial[-1]}; best {best['index'] + 1} at {best_speed[-1]:.2f} m/s, at a bound: {at}")
     print(f"\nrho(J_feedback, speed) within studies: {mean_sd(rho_fb_speed)} (positive on {sum(r > 0 for r in rho_fb_speed)} of {len(seeds)})")
+    print(f"rho(speed, J_contact) within studies: {mean_sd(rho_speed_contact)}; fastest gait with J_contact < 0.05: "
+          f"{mean_sd(clean_fastest)} m/s; of {fast} rollouts faster than 0.45 m/s, {fast_stumbling} have J_contact >= 0.3")
     for i, (a, b) in enumerate(WINDOWS):
         print(f"mean speed, rollouts {a}-{b}: {mean_sd([w[i] for w in windows])} m/s")
     print(f"initial design: mean speed of its gaits that walked {mean_sd(initial_speed)} m/s, fastest {mean_sd(initial_speed_max)} m/s; "
