@@ -62,6 +62,16 @@ std::optional<std::string> impossible_motion(const TimedTrunk& previous, const P
   return std::nullopt;
 }
 
+EnergySample energy_sample(const PlantState& s) {
+  EnergySample e;
+  e.time_s = s.time_s;
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    e.hip[leg] = {s.legs[leg].hip_torque_nm, s.legs[leg].hip_speed_rad_s};
+    e.knee[leg] = {s.legs[leg].knee_torque_nm, s.legs[leg].knee_motor_speed_rad_s};
+  }
+  return e;
+}
+
 }  // namespace
 
 RolloutClock::RolloutClock(const Plant& plant, const RolloutSettings& settings) {
@@ -123,7 +133,10 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   CpgController controller(params, settings.controller);
   ContactSensor sensor(settings.contact_sensor, seed);
   CostRecorder recorder(settings.cost);
-  recorder.reserve(static_cast<std::size_t>((total_steps - eval_start_step) / clock.control_every() + 2));
+  EnergyRecorder energy(plant.energy_model());
+  const auto eval_samples = static_cast<std::size_t>((total_steps - eval_start_step) / clock.control_every() + 2);
+  recorder.reserve(eval_samples);
+  energy.reserve(eval_samples);
   RolloutResult result;
   result.params = params;
 
@@ -184,6 +197,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
           sample.abs_knee_torque_nm[leg] = std::abs(state.legs[leg].knee_torque_nm);
         }
         recorder.add(sample);
+        energy.add(energy_sample(state));
       }
       if (trace) trace(TraceSample{state.time_s, &state, &output, &contacts});
     }
@@ -194,6 +208,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   if (tracking_samples > 0) result.hip_tracking_rms_rad = std::sqrt(tracking_sq_sum / tracking_samples);
   const double expected_pitch_hz = params.frequency * pitch_harmonic(Gait::named(settings.controller.gait));
   result.breakdown = recorder.evaluate(params.frequency, expected_pitch_hz);
+  result.energy = energy.evaluate(result.breakdown.distance_m, settings.cost.min_distance_m);
   // A fault or a divergence gets the fall cost as a placeholder: the optimizer never learns from it (its
   // outcome says so), but every report keeps a finite cost.
   result.cost = ended_at_s >= 0.0 ? recorder.fall_cost(ended_at_s, total_time, expected_pitch_hz)
@@ -337,6 +352,9 @@ TraceSink make_csv_trace(const std::string& path) {
         "{0}_knee_torque_nm,{0}_foot_force_n,{0}_contact,{0}_ltd,{0}_etd,{0}_eto,{0}_lto",
         leg);
   }
+  // The motors' output speeds (for their power, energy.hpp) after every leg's block, so older readers
+  // that count columns still find theirs.
+  for (const auto& leg : kLegNames) *out << fmt::format(",{0}_hip_speed_rad_s,{0}_knee_motor_speed_rad_s", leg);
   *out << '\n';
   return [out](const TraceSample& s) {
     const auto& st = *s.state;
@@ -352,6 +370,7 @@ TraceSink make_csv_trace(const std::string& path) {
                           (*s.contacts)[leg], a.late_touchdown, a.early_touchdown, a.early_toeoff,
                           a.late_toeoff);
     }
+    for (const auto& ls : st.legs) *out << fmt::format(",{:.4f},{:.4f}", ls.hip_speed_rad_s, ls.knee_motor_speed_rad_s);
     *out << '\n';
   };
 }

@@ -56,6 +56,7 @@ StudyTrials synthetic_study(int seed) {
     t.summed_torque_nm = t.normalized_torque * t.mean_speed_mps;
     t.params = {{"hip_offset", -0.3 + 0.02 * i}, {"overswing", 0.5 * std::abs(std::sin(3.0 * i + seed))}};
     if (t.fell) t.cost += 14.0;  // a fall costs 13-19 in a study, a walking gait 0.4-6
+    t.energy.electrical_cost_of_transport = 0.5 + 1.0 / (i + 1);
     s.trials.push_back(t);
   }
   return s;
@@ -75,12 +76,22 @@ class Plots : public ::testing::Test {
 
 TEST_F(Plots, StudyFigures) {
   const FigureReport report = plot_study(synthetic_study(0), dir_);
-  EXPECT_EQ(report.files.size(), 12u);
+  EXPECT_EQ(report.files.size(), 14u);
   EXPECT_TRUE(report.failed.empty()) << report.failed.front();
   EXPECT_TRUE(report.not_drawn.empty()) << report.not_drawn.front();
-  for (const char* stem : {"fig5a", "fig5b", "fig6", "param_slices", "param_importance", "param_parallel"}) {
+  for (const char* stem : {"fig5a", "fig5b", "fig6", "fig6_cot", "param_slices", "param_importance", "param_parallel"}) {
     expect_figure(dir_, stem);
   }
+}
+
+TEST_F(Plots, AStudyWithoutEnergyDataDrawsFig6AloneAndSaysWhy) {
+  StudyTrials s = synthetic_study(0);
+  for (auto& t : s.trials) t.energy = EnergyMeasures{};
+  const FigureReport report = plot_study(s, dir_);
+  EXPECT_EQ(report.files.size(), 12u);
+  EXPECT_FALSE(fs::exists(dir_ / "fig6_cot.png"));
+  ASSERT_EQ(report.not_drawn.size(), 1u);
+  EXPECT_EQ(report.not_drawn[0].rfind("fig6_cot:", 0), 0u) << report.not_drawn[0];
 }
 
 // A rollout trace as `cpgmatch rollout --trace` writes it, 6 s at 500 Hz and 1 Hz, each leg's phase (cycles,
@@ -228,8 +239,9 @@ TEST_F(Plots, AStudyWhereNothingRanIsAllReasonsAndNoFailure) {
   const FigureReport report = plot_study(s, dir_);
   EXPECT_TRUE(report.files.empty());
   EXPECT_TRUE(report.failed.empty());
-  EXPECT_EQ(report.not_drawn.size(), 6u);
+  EXPECT_EQ(report.not_drawn.size(), 7u);  // fig5a, fig5b, fig6, fig6_cot and the three parameter figures
   EXPECT_TRUE(mentions(report.not_drawn, "fig5a: no rollout ran"));
+  EXPECT_TRUE(mentions(report.not_drawn, "fig6_cot: "));
 }
 
 TEST_F(Plots, AStudyWhereEveryRolloutFellStillDrawsItsCostsAndTerms) {

@@ -193,6 +193,13 @@ TEST(Convert, EveryDomainValueSurvivesTheWire) {
   r.summary.mean_speed_mps = 0.3;
   r.wall_time_s = 0.23;
   r.loop = domain::LoopTiming{12.0, 40.0, 90.0, 3};
+  r.summary.energy.electrical_cost_of_transport = 4.5;
+  r.summary.energy.signed_torque_per_speed = 11.0;
+  r.summary.energy.positive_work_j_per_m = 28.0;
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    r.summary.energy.hip[leg] = {1.0 + leg, 2.0 + leg, 3.0 + leg, -0.1 * leg};
+    r.summary.energy.knee[leg] = {5.0 + leg, 6.0 + leg, 7.0 + leg, -0.5 - leg};
+  }
   const domain::RolloutReport back = from_wire(to_wire(r));
   EXPECT_EQ(domain::to_json(back), domain::to_json(r));
   EXPECT_EQ(back.id.store_id, r.id.store_id);

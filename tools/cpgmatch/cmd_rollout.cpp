@@ -46,7 +46,16 @@ void print_summary(const RolloutResult& r, const sim::SimRolloutJob& job) {
   fmt::print("    J_pitch          {:8.4f}   (rad)\n", b.terms.pitch);
   fmt::print("    J_contact        {:8.4f}\n", b.terms.contact);
   fmt::print("    J_periodicity    {:8.4f}   (Hz)\n", b.terms.periodicity);
-  fmt::print("  normalized torque  {:8.4f}   (N m / (m/s))\n", b.normalized_torque);
+  fmt::print("  normalized torque  {:8.4f}   (N m / (m/s), eq. 1: sum of mean |torque| / speed)\n", b.normalized_torque);
+  const EnergyMeasures& e = r.energy;
+  fmt::print("  signed torque      {:8.4f}   (N m / (m/s): sum of |signed mean torque| / speed)\n",
+             e.signed_torque_per_speed);
+  fmt::print("  positive work      {:8.4f}   (J/m; hips {:.4f}, knees {:.4f})\n", e.positive_work_j_per_m,
+             e.hip_positive_work_j_per_m, e.knee_positive_work_j_per_m);
+  fmt::print("  electrical energy  {:8.4f}   (J over the evaluation; Joule loss {:.3f} J)\n", e.electrical_j,
+             e.joule_loss_j);
+  fmt::print("  cost of transport  {:8.4f}   (electrical; mechanical {:.4f})\n", e.electrical_cost_of_transport,
+             e.mechanical_cost_of_transport);
   if (r.hip_tracking_rms_rad >= 0.0) {
     fmt::print("  hip tracking       {:8.4f}   (rad, RMS of command minus hip angle after the start-up ramp)\n",
                r.hip_tracking_rms_rad);

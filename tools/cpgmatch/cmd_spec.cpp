@@ -115,11 +115,22 @@ void add_spec_commands(CLI::App& app, CLI::App* study) {
       const std::string kind = t.report.is_object() ? t.report.value("worker_kind", "sim") : "sim";
       const bool stored_ok = t.ok;
       const bool equal = stored_ok && r.cost == t.cost;
+      // A spec of another objective version was computed by other science: this release re-runs it with its
+      // own, and says so (equality is then a finding, not a guarantee).
+      const bool other_version = spec->objective_version() != study::kObjectiveVersion;
+      if (other_version) {
+        fmt::print(stderr,
+                   "note: study {}'s spec is objective version {}; this release computes version {}, so the rerun may "
+                   "differ for reasons of the science, not of the store\n",
+                   stored.study_id, spec->objective_version(), study::kObjectiveVersion);
+      }
       if (o->json) {
         std::cout << nlohmann::json{{"study_id", stored.study_id},
                                     {"trial_id", t.trial_id},
                                     {"worker_kind", kind},
                                     {"spec_sha256", spec->sha256()},
+                                    {"spec_objective_version", spec->objective_version()},
+                                    {"rerun_objective_version", study::kObjectiveVersion},
                                     {"seed", seed},
                                     {"params", params},
                                     {"stored_ok", stored_ok},
@@ -135,6 +146,7 @@ void add_spec_commands(CLI::App& app, CLI::App* study) {
         fmt::print("recomputed cost {:.17g} ({})\n", r.cost, to_string(r.outcome));
         fmt::print("{}\n", equal ? "equal to the bit"
                            : kind == "hardware" ? "differs: a hardware trial re-runs in simulation"
+                           : other_version      ? "differs: the spec is of another objective version"
                                                 : "DIFFERS");
       }
     });

@@ -1,5 +1,7 @@
 #include "rollout_json.hpp"
 
+#include "cpgmatch/domain/report_json.hpp"
+
 namespace cpgmatch::cli {
 
 nlohmann::json params_to_json(const CpgParameters& p) {
@@ -36,6 +38,7 @@ nlohmann::json to_json(const RolloutResult& r) {
       {"sim_time_s", r.sim_time_s},
       {"wall_time_s", r.wall_time_s},
       {"params", params_to_json(r.params)},
+      {"energy", domain::to_json(r.energy)},
   };
 }
 

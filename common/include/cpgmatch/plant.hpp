@@ -6,9 +6,11 @@
 // All values are SI: radians, metres, seconds, newtons, newton-metres.
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <string>
 
+#include "cpgmatch/energy.hpp"
 #include "cpgmatch/legs.hpp"
 
 namespace cpgmatch {
@@ -25,6 +27,11 @@ struct LegState {
   double hip_torque_nm = 0.0;      // torque the hip motor produced
   double knee_torque_nm = 0.0;     // torque the knee motor produced
   double foot_normal_force_n = 0.0;  // as the foot sensor reports it (a simulated FootTile may lag)
+  // Speeds of the motors' outputs, for their power (torque x speed). The hip motor turns with the hip; the
+  // knee motor drives the knee through its series spring, so its output (the spring's rest angle) turns
+  // at its own speed, not the knee's. NaN from a plant that does not measure them.
+  double hip_speed_rad_s = std::nan("");
+  double knee_motor_speed_rad_s = std::nan("");
 };
 
 struct TrunkState {
@@ -67,6 +74,9 @@ class Plant {
   // healthy. A faulted plant's state says nothing about the gait: the rollout ends as a plant fault, not a
   // fall. A simulation has no such fault (a blow-up is seen as a non-finite state instead).
   virtual std::optional<std::string> fault() const { return std::nullopt; }
+  // Its motors' torque-speed lines and the mass it carries, for the energy a rollout reports (energy.hpp);
+  // nothing when the plant does not know them (then only what needs no model is measured).
+  virtual std::optional<EnergyModel> energy_model() const { return std::nullopt; }
 };
 
 }  // namespace cpgmatch

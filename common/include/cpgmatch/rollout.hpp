@@ -10,6 +10,7 @@
 #include "cpgmatch/contact_sensor.hpp"
 #include "cpgmatch/controller.hpp"
 #include "cpgmatch/cost.hpp"
+#include "cpgmatch/energy.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/plant.hpp"
 
@@ -46,6 +47,9 @@ struct RolloutResult {
   // of a loaded hip than its motor's torque-speed line and its position loop give lags by tenths of a
   // radian; a matched trot's by about 0.1 (docs/model.md, "Which random gaits the feedback breaks").
   double hip_tracking_rms_rad = -1.0;
+  // What the motors spent over the evaluation window (energy.hpp): positive work, Joule loss, electrical
+  // energy, cost of transport, signed mean torques. Up to the fall, when it fell.
+  EnergyMeasures energy;
   CpgParameters params;
 };
 

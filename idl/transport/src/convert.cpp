@@ -151,6 +151,26 @@ msg::RolloutReport to_wire(const domain::RolloutReport& r) {
   w.loop_jitter_p99_us(r.loop.jitter_p99_us);
   w.loop_jitter_max_us(r.loop.jitter_max_us);
   w.loop_overruns(u32(r.loop.overruns));
+  const EnergyMeasures& e = s.energy;
+  w.positive_work_j(e.positive_work_j);
+  w.joule_loss_j(e.joule_loss_j);
+  w.electrical_j(e.electrical_j);
+  w.hip_positive_work_j_per_m(e.hip_positive_work_j_per_m);
+  w.knee_positive_work_j_per_m(e.knee_positive_work_j_per_m);
+  w.positive_work_j_per_m(e.positive_work_j_per_m);
+  w.mechanical_cost_of_transport(e.mechanical_cost_of_transport);
+  w.electrical_cost_of_transport(e.electrical_cost_of_transport);
+  w.signed_torque_per_speed(e.signed_torque_per_speed);
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    w.hip_positive_work_j()[leg] = e.hip[leg].positive_work_j;
+    w.hip_joule_loss_j()[leg] = e.hip[leg].joule_loss_j;
+    w.hip_electrical_j()[leg] = e.hip[leg].electrical_j;
+    w.hip_signed_mean_torque_nm()[leg] = e.hip[leg].signed_mean_torque_nm;
+    w.knee_positive_work_j()[leg] = e.knee[leg].positive_work_j;
+    w.knee_joule_loss_j()[leg] = e.knee[leg].joule_loss_j;
+    w.knee_electrical_j()[leg] = e.knee[leg].electrical_j;
+    w.knee_signed_mean_torque_nm()[leg] = e.knee[leg].signed_mean_torque_nm;
+  }
   return w;
 }
 
@@ -187,6 +207,22 @@ domain::RolloutReport from_wire(const msg::RolloutReport& w) {
   r.loop.jitter_p99_us = w.loop_jitter_p99_us();
   r.loop.jitter_max_us = w.loop_jitter_max_us();
   r.loop.overruns = static_cast<int>(std::min<std::uint32_t>(w.loop_overruns(), std::numeric_limits<int>::max()));
+  EnergyMeasures& e = s.energy;
+  e.positive_work_j = w.positive_work_j();
+  e.joule_loss_j = w.joule_loss_j();
+  e.electrical_j = w.electrical_j();
+  e.hip_positive_work_j_per_m = w.hip_positive_work_j_per_m();
+  e.knee_positive_work_j_per_m = w.knee_positive_work_j_per_m();
+  e.positive_work_j_per_m = w.positive_work_j_per_m();
+  e.mechanical_cost_of_transport = w.mechanical_cost_of_transport();
+  e.electrical_cost_of_transport = w.electrical_cost_of_transport();
+  e.signed_torque_per_speed = w.signed_torque_per_speed();
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    e.hip[leg] = {w.hip_positive_work_j()[leg], w.hip_joule_loss_j()[leg], w.hip_electrical_j()[leg],
+                  w.hip_signed_mean_torque_nm()[leg]};
+    e.knee[leg] = {w.knee_positive_work_j()[leg], w.knee_joule_loss_j()[leg], w.knee_electrical_j()[leg],
+                   w.knee_signed_mean_torque_nm()[leg]};
+  }
   return r;
 }
 

@@ -407,6 +407,9 @@ PlantState CanPlant::state() const {
     l.hip_torque_nm = torque_[joint_index(leg, true)];
     l.knee_torque_nm = torque_[joint_index(leg, false)];
     l.foot_normal_force_n = foot_force_[leg];
+    // The motors' own encoders: the knee motor's is its output, the spring's rest side (energy.hpp needs it).
+    l.hip_speed_rad_s = velocity_[joint_index(leg, true)];
+    l.knee_motor_speed_rad_s = velocity_[joint_index(leg, false)];
   }
   return s;
 }

@@ -35,6 +35,17 @@ nlohmann::json to_json(const ScienceReport& r) {
   }
   nlohmann::json params = nlohmann::json::object();
   for (const auto& [k, v] : r.best_params) params[k] = number(v);
+  nlohmann::json measures = nlohmann::json::object();
+  for (const MeasureStats& m : r.measures) {
+    measures[m.key] = {{"initial_median", number(m.initial_median)},
+                       {"late_median", number(m.late_median)},
+                       {"ratio", number(m.ratio)},
+                       {"samples", m.samples},
+                       {"rho_feedback", number(m.rho_feedback)},
+                       {"rho_feedback_residual", number(m.rho_feedback_residual)},
+                       {"rho_feedback_partial", number(m.rho_feedback_partial)},
+                       {"speed_exponent", number(m.speed_exponent)}};
+  }
   nlohmann::json j{
       {"name", r.name},
       {"study_id", r.study_id},
@@ -86,7 +97,14 @@ nlohmann::json to_json(const ScienceReport& r) {
       {"small_terms",
        {{"contact", number(r.fraction_contact_small)},
         {"periodicity", number(r.fraction_periodicity_small)},
-        {"both", number(r.fraction_both_small)}}},
+        {"both", number(r.fraction_both_small)},
+        {"best_quartile",
+         {{"rollouts", r.small_terms_best_quartile.rollouts},
+          {"contact", number(r.small_terms_best_quartile.contact)},
+          {"periodicity", number(r.small_terms_best_quartile.periodicity)},
+          {"both", number(r.small_terms_best_quartile.both)}}}}},
+      {"measures", measures},
+      {"eq1", {{"knee_steady_share_median", number(r.knee_steady_share_median)}}},
       {"recommended", nullptr},
       {"jitter", nullptr},
       {"paper", paper_values()},

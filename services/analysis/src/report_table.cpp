@@ -7,6 +7,15 @@
 
 namespace cpgmatch::analysis {
 
+namespace {
+
+// Rows whose paths all lie under one prefix (a window, a measure).
+void append_under(std::vector<TableRow>& rows, const std::string& prefix, const std::vector<TableRow>& relative) {
+  for (const TableRow& row : relative) rows.push_back({row.label, prefix + row.path, row.decimals});
+}
+
+}  // namespace
+
 std::vector<TableRow> report_rows(const nlohmann::json& report) {
   std::vector<TableRow> rows = {
       {"falls", "", 0},
@@ -27,13 +36,14 @@ std::vector<TableRow> report_rows(const nlohmann::json& report) {
     rows.push_back({fmt::format("rollouts {}-{} (non-fallen for all but falls)", windows[i]["first"].get<int>(),
                                 windows[i]["last"].get<int>()),
                     "", 0});
-    rows.push_back({"  rollouts", w + "rollouts", 0});
-    rows.push_back({"  falls", w + "falls", 0});
-    rows.push_back({"  J_feedback mean", w + "feedback_mean", 3});
-    rows.push_back({"  J_feedback median", w + "feedback_median", 3});
-    rows.push_back({"  normalised torque median, N m/(m/s)", w + "normalized_torque_median", 2});
-    rows.push_back({"  summed torque median, N m", w + "summed_torque_median_nm", 3});
-    rows.push_back({"  mean speed, m/s", w + "speed_mean_mps", 3});
+    append_under(rows, w,
+                 {{"  rollouts", "rollouts", 0},
+                  {"  falls", "falls", 0},
+                  {"  J_feedback mean", "feedback_mean", 3},
+                  {"  J_feedback median", "feedback_median", 3},
+                  {"  normalised torque median, N m/(m/s)", "normalized_torque_median", 2},
+                  {"  summed torque median, N m", "summed_torque_median_nm", 3},
+                  {"  mean speed, m/s", "speed_mean_mps", 3}});
   }
   const std::vector<TableRow> rest = {
       {"learning: last rollouts vs initial design (non-fallen)", "", 0},
@@ -69,11 +79,28 @@ std::vector<TableRow> report_rows(const nlohmann::json& report) {
       {"  J_feedback vs summed torque", "correlations.feedback_vs_summed_torque", 3},
       {"  fitted exponent of torque ~ speed^b", "correlations.torque_speed_exponent", 3},
       {"J_contact, J_periodicity < 0.1 (J_feedback + J_distance)", "", 0},
-      {"  fraction, J_contact", "small_terms.contact", 3},
-      {"  fraction, J_periodicity", "small_terms.periodicity", 3},
-      {"  fraction, both", "small_terms.both", 3},
+      {"  all non-fallen (bad gaits pooled in): J_contact", "small_terms.contact", 3},
+      {"  all non-fallen: J_periodicity", "small_terms.periodicity", 3},
+      {"  all non-fallen: both", "small_terms.both", 3},
+      {"  good gaits (best quartile by cost): rollouts", "small_terms.best_quartile.rollouts", 0},
+      {"  good gaits: J_contact", "small_terms.best_quartile.contact", 3},
+      {"  good gaits: J_periodicity", "small_terms.best_quartile.periodicity", 3},
+      {"  good gaits: both", "small_terms.best_quartile.both", 3},
+      {"what the motors spend (non-fallen; rho: Spearman with J_feedback)", "", 0},
+      {"  eq. 1: knees' steady torque, share of its numerator", "eq1.knee_steady_share_median", 3},
   };
   rows.insert(rows.end(), rest.begin(), rest.end());
+  for (const auto& m : energy_measures()) {
+    rows.push_back({fmt::format("  {}", m.label), "", 0});
+    append_under(rows, fmt::format("measures.{}.", m.key),
+                 {{"    median, initial design", "initial_median", 3},
+                  {"    median, last rollouts", "late_median", 3},
+                  {"    ratio last / initial", "ratio", 3},
+                  {"    rho", "rho_feedback", 3},
+                  {"    rho at equal speed (log residual)", "rho_feedback_residual", 3},
+                  {"    rho at equal speed (partial)", "rho_feedback_partial", 3},
+                  {"    exponent b of measure ~ speed^b", "speed_exponent", 3}});
+  }
   if (report.contains("recommended") && report["recommended"].is_object()) {
     rows.push_back({"recommended: the rollout with the lowest GP posterior mean", "", 0});
     rows.push_back({"  rollout", "recommended.rollout", 0});
@@ -114,6 +141,7 @@ std::string format_table(const ScienceReport& r) {
     out += fmt::format("{:<56} {:>12}  {}\n", row.label, format_value(json_at(j, row.path), row.decimals),
                        paper.is_null() ? "" : format_value(paper, row.decimals));
   }
+  out += eq1_sentence(r.knee_steady_share_median) + "\n";
   if (!r.best_params.empty()) {
     // The study's answer (best_params.yaml): the recommendation when there is one.
     out += r.recommendation ? "recommended parameters:" : "best parameters:";

@@ -72,7 +72,32 @@ void correlations(const StudyTrials& s, ScienceReport& r) {
   r.rho_feedback_torque_residual = spearman(fb, residuals(log_v, log_nt));
 }
 
+// The lowest-cost quarter (rounded up) of these rollouts.
+std::vector<const Trial*> best_quartile(std::vector<const Trial*> rollouts) {
+  std::stable_sort(rollouts.begin(), rollouts.end(), [](const Trial* a, const Trial* b) { return a->cost < b->cost; });
+  rollouts.resize((rollouts.size() + 3) / 4);
+  return rollouts;
+}
+
 }  // namespace
+
+SmallTerms small_terms(const std::vector<const Trial*>& rollouts, double small_term_fraction) {
+  SmallTerms out;
+  int contact = 0, periodicity = 0, both = 0;
+  for (const Trial* t : rollouts) {
+    const double scale = small_term_fraction * (t->terms.feedback + t->terms.distance);
+    const bool c = t->terms.contact < scale, p = t->terms.periodicity < scale;
+    contact += c;
+    periodicity += p;
+    both += c && p;
+  }
+  out.rollouts = static_cast<int>(rollouts.size());
+  const double n = out.rollouts;
+  out.contact = n > 0 ? contact / n : std::nan("");
+  out.periodicity = n > 0 ? periodicity / n : std::nan("");
+  out.both = n > 0 ? both / n : std::nan("");
+  return out;
+}
 
 ScienceReport science_report(const StudyTrials& s, const ReportOptions& o) {
   ScienceReport r;
@@ -144,18 +169,14 @@ ScienceReport science_report(const StudyTrials& s, const ReportOptions& o) {
 
   correlations(s, r);
 
-  int contact_small = 0, periodicity_small = 0, both_small = 0;
-  for (const Trial* t : all_walked) {
-    const double scale = o.small_term_fraction * (t->terms.feedback + t->terms.distance);
-    const bool c = t->terms.contact < scale, p = t->terms.periodicity < scale;
-    contact_small += c;
-    periodicity_small += p;
-    both_small += c && p;
-  }
-  const double walked = static_cast<double>(all_walked.size());
-  r.fraction_contact_small = walked > 0 ? contact_small / walked : std::nan("");
-  r.fraction_periodicity_small = walked > 0 ? periodicity_small / walked : std::nan("");
-  r.fraction_both_small = walked > 0 ? both_small / walked : std::nan("");
+  const SmallTerms all_small = small_terms(all_walked, o.small_term_fraction);
+  r.fraction_contact_small = all_small.contact;
+  r.fraction_periodicity_small = all_small.periodicity;
+  r.fraction_both_small = all_small.both;
+  r.small_terms_best_quartile = small_terms(best_quartile(all_walked), o.small_term_fraction);
+
+  r.measures = energy_claim(s, s.initial_points, r.late_first_rollout);
+  r.knee_steady_share_median = knee_steady_share_median(s);
   r.falls_after_locations = fall_locations(s);
   r.recommendation = recommend(s);
   return r;

@@ -82,4 +82,30 @@ std::vector<double> residuals(const std::vector<double>& x, const std::vector<do
   return r;
 }
 
+double partial_spearman(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z) {
+  const double xy = spearman(x, y), xz = spearman(x, z), yz = spearman(y, z);
+  const double denominator = std::sqrt((1.0 - xz * xz) * (1.0 - yz * yz));
+  if (!(denominator > 0.0)) return std::nan("");
+  return (xy - xz * yz) / denominator;
+}
+
+SignTest sign_test(const std::vector<double>& values, double reference) {
+  SignTest t;
+  for (double v : values) {
+    if (!std::isfinite(v)) continue;
+    t.above += v > reference;
+    t.below += v < reference;
+  }
+  const int n = t.above + t.below;
+  const int fewer = std::min(t.above, t.below);
+  // P(X <= fewer) for X ~ Binomial(n, 1/2), summed term by term: C(n, k) / 2^n.
+  double term = std::pow(0.5, n), tail = 0.0;
+  for (int k = 0; k <= fewer; ++k) {
+    tail += term;
+    term *= static_cast<double>(n - k) / (k + 1);
+  }
+  t.p_two_sided = std::min(1.0, 2.0 * tail);
+  return t;
+}
+
 }  // namespace cpgmatch::analysis

@@ -240,6 +240,48 @@ FigureScript fig6(const StudyTrials& s, const fs::path& data) {
   return f;
 }
 
+// Beside Fig. 6: what the motors drew (energy.hpp), per weight and metre, of the rollouts that walked, in the
+// same order (sorted by cost, falls shaded). A store from before energy has none: then it is not drawn.
+FigureScript fig6_cot(const StudyTrials& s, const fs::path& data) {
+  FigureScript f("fig6_cot");
+  std::vector<const Trial*> ran;
+  for (const auto& t : s.trials) {
+    if (t.ok && std::isfinite(t.cost)) ran.push_back(&t);
+  }
+  std::stable_sort(ran.begin(), ran.end(), [](const Trial* a, const Trial* b) { return a->cost < b->cost; });
+  const bool has_energy = std::any_of(ran.begin(), ran.end(), [](const Trial* t) {
+    return !t->fell && std::isfinite(t->energy.electrical_cost_of_transport) && t->energy.electrical_cost_of_transport > 0.0;
+  });
+  if (!has_energy) {
+    f.unavailable = "fig6_cot: no rollout that walked has an electrical cost of transport (a store from before energy, "
+                    "or a plant without a motor model)";
+    return f;
+  }
+  std::string falls;
+  {
+    std::ofstream out(data);
+    out << "# rank_by_cost rollout cost electrical_cost_of_transport(walked)\n";
+    for (std::size_t i = 0; i < ran.size(); ++i) {
+      const Trial& t = *ran[i];
+      const double cot = t.energy.electrical_cost_of_transport;
+      out << fmt::format("{} {} {} {}\n", i + 1, t.trial_id + 1, num(t.cost),
+                         !t.fell && cot > 0.0 && std::isfinite(cot) ? num(cot) : "NaN");
+      if (t.fell) {
+        falls += fmt::format("set object rect from {},graph 0 to {},graph 1 fc rgb '{}' fs transparent solid 0.25 noborder behind\n",
+                             i + 0.5, i + 1.5, kFallColour);
+      }
+    }
+  }
+  f.body = fmt::format(
+      "set datafile missing 'NaN'\nset grid\nset key top left\nset xrange [0.5:{}.5]\nset logscale y\n"
+      "set title 'Beside Fig. 6: electrical cost of transport of rollouts sorted by cost (log scale; shaded: falls)'\n"
+      "set xlabel 'rollouts sorted by cost (1 = best)'\nset ylabel 'electrical cost of transport E / (m g d)'\n{}"
+      "plot {} u 1:4 w p pt 7 ps 0.6 lc rgb '{}' t 'electrical cost of transport (DC-motor model)', '' u 1:4 smooth bezier "
+      "lw 2 lc rgb 'black' t 'trend', keyentry w boxes fs transparent solid 0.25 lc rgb '{}' t 'fell'\n",
+      ran.size(), falls, gnuplot_quote(data), kCostColour, kFallColour);
+  return f;
+}
+
 }  // namespace
 
 std::vector<double> current_minimum(const StudyTrials& s) {
@@ -277,6 +319,7 @@ FigureReport plot_study(const StudyTrials& s, const fs::path& out_dir) {
   draw_figure(dir, fig5a(s, trials), report);
   draw_figure(dir, fig5b(s, trials), report);
   draw_figure(dir, fig6(s, dir / "fig6.dat"), report);
+  draw_figure(dir, fig6_cot(s, dir / "fig6_cot.dat"), report);
   for (const auto& figure : parameter_figures(s, dir)) draw_figure(dir, figure, report);
   return report;
 }

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "cpgmatch/domain/report_json.hpp"
+
 namespace cpgmatch::analysis {
 namespace {
 
@@ -32,6 +34,7 @@ Trial trial_from_report(int trial_id, const nlohmann::json& report, std::map<std
   t.distance_m = number(report, "distance_m");
   t.summed_torque_nm = number(report, "summed_torque_nm");
   if (!std::isfinite(t.summed_torque_nm)) t.summed_torque_nm = t.normalized_torque * t.mean_speed_mps;
+  if (report.contains("energy")) t.energy = domain::energy_from_json(report.at("energy"));
   return t;
 }
 

@@ -46,8 +46,9 @@ domain::RolloutReport replayed_report(const study::StoredTrial& t, std::string* 
 // The origin a migrated spec is stored with: which release resolved it, and why it had to.
 std::string migrated_origin() {
   return fmt::format("migrated: the study was stored before specs existed; resolved at its first open from the "
-                     "defaults this release ships (objective version {}, the science of the release that wrote it)",
-                     study::kObjectiveVersion);
+                     "defaults this release ships, marked objective version {} (what releases before specs computed; "
+                     "this release computes version {})",
+                     study::kVersionBeforeSpecs, study::kObjectiveVersion);
 }
 
 }  // namespace
@@ -65,7 +66,7 @@ void Coordinator::resume_from_store(double now_s) {
       if (stored.spec.json.empty()) {
         // A store from before specs: the spec is the defaults of this release (same science), said so.
         auto spec = std::make_shared<const study::StudySpec>(
-            study::StudySpec::resolve(stored.config_yaml, stored.source_name, spec_defaults()));
+            study::StudySpec::resolve(stored.config_yaml, stored.source_name, spec_defaults(), study::kVersionBeforeSpecs));
         const study::StoredSpec migrated{spec->canonical_json(), spec->sha256(), migrated_origin()};
         store_.set_spec(s.id, migrated);
         info_(fmt::format("study {} '{}': stored before specs; spec {} resolved from this release's defaults", s.id,

@@ -1,5 +1,6 @@
 #include "cpgmatch/domain/report_json.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 namespace cpgmatch::domain {
@@ -16,7 +17,69 @@ nlohmann::json params_json(const std::map<std::string, double>& named) {
   return j;
 }
 
+double number_or_nan(const nlohmann::json& j, const char* key) {
+  return j.is_object() && j.contains(key) && j.at(key).is_number() ? j.at(key).get<double>() : std::nan("");
+}
+
+// The energy object's scalar fields, one list for writing and reading.
+template <typename Energy, typename F>
+void for_each_energy_total(Energy& e, F f) {
+  f("positive_work_j", e.positive_work_j);
+  f("joule_loss_j", e.joule_loss_j);
+  f("electrical_j", e.electrical_j);
+  f("hip_positive_work_j_per_m", e.hip_positive_work_j_per_m);
+  f("knee_positive_work_j_per_m", e.knee_positive_work_j_per_m);
+  f("positive_work_j_per_m", e.positive_work_j_per_m);
+  f("mechanical_cost_of_transport", e.mechanical_cost_of_transport);
+  f("electrical_cost_of_transport", e.electrical_cost_of_transport);
+  f("signed_torque_per_speed", e.signed_torque_per_speed);
+}
+
+template <typename Joint, typename F>
+void for_each_joint_field(Joint& j, F f) {
+  f("positive_work_j", j.positive_work_j);
+  f("joule_loss_j", j.joule_loss_j);
+  f("electrical_j", j.electrical_j);
+  f("signed_mean_torque_nm", j.signed_mean_torque_nm);
+}
+
+nlohmann::json joints_json(const PerLeg<JointEnergy>& joints) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const JointEnergy& joint : joints) {
+    nlohmann::json j = nlohmann::json::object();
+    for_each_joint_field(joint, [&](const char* key, double v) { j[key] = number(v); });
+    out.push_back(j);
+  }
+  return out;
+}
+
+void joints_from_json(const nlohmann::json& j, PerLeg<JointEnergy>& joints) {
+  if (!j.is_array()) return;
+  for (std::size_t leg = 0; leg < joints.size() && leg < j.size(); ++leg) {
+    for_each_joint_field(joints[leg], [&](const char* key, double& v) { v = number_or_nan(j[leg], key); });
+  }
+}
+
 }  // namespace
+
+nlohmann::json to_json(const EnergyMeasures& e) {
+  nlohmann::json j = nlohmann::json::object();
+  for_each_energy_total(e, [&](const char* key, double v) { j[key] = number(v); });
+  j["joints"] = {{"hip", joints_json(e.hip)}, {"knee", joints_json(e.knee)}};
+  return j;
+}
+
+EnergyMeasures energy_from_json(const nlohmann::json& j) {
+  EnergyMeasures e;
+  if (!j.is_object()) return e;
+  for_each_energy_total(e, [&](const char* key, double& v) { v = number_or_nan(j, key); });
+  if (j.contains("joints") && j.at("joints").is_object()) {
+    const auto& joints = j.at("joints");
+    if (joints.contains("hip")) joints_from_json(joints.at("hip"), e.hip);
+    if (joints.contains("knee")) joints_from_json(joints.at("knee"), e.knee);
+  }
+  return e;
+}
 
 nlohmann::json to_json(const RolloutReport& r) {
   const RolloutSummary& s = r.summary;
@@ -46,7 +109,8 @@ nlohmann::json to_json(const RolloutReport& r) {
                       {"fall_time_s", number(s.fall_time_s)},
                       {"distance_m", number(s.distance_m)},
                       {"mean_speed_mps", number(s.mean_speed_mps)},
-                      {"wall_time_s", number(r.wall_time_s)}};
+                      {"wall_time_s", number(r.wall_time_s)},
+                      {"energy", to_json(s.energy)}};
   // Only hardware reports time a control loop; simulation reports keep their shape.
   if (r.worker_kind == WorkerKind::kHardware) {
     j["loop"] = {{"jitter_p50_us", number(r.loop.jitter_p50_us)},
@@ -93,6 +157,8 @@ RolloutReport report_from_json(const nlohmann::json& j) {
   s.distance_m = number_of(j.at("distance_m"));
   s.mean_speed_mps = number_of(j.at("mean_speed_mps"));
   r.wall_time_s = number_of(j.at("wall_time_s"));
+  // Stores from before energy have none: every energy field stays NaN.
+  if (j.contains("energy")) s.energy = energy_from_json(j.at("energy"));
   if (j.contains("loop")) {
     const auto& l = j.at("loop");
     r.loop.jitter_p50_us = number_of(l.at("jitter_p50_us"));

@@ -19,6 +19,7 @@ RolloutReport report_of(const RolloutResult& result) {
   r.summary.fall_time_s = r.fell() ? result.fall_time_s : -1.0;
   r.summary.distance_m = b.distance_m;
   r.summary.mean_speed_mps = b.mean_speed_mps;
+  r.summary.energy = result.energy;
   r.wall_time_s = result.wall_time_s;
   return r;
 }

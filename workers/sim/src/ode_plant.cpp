@@ -88,13 +88,29 @@ class PlanarJoint {
   double zero_ = 0.0;
 };
 
+DcMotorLine line_of(const MotorModel& m) { return {m.stall_torque_nm, m.no_load_speed_rad_s}; }
+
 // Torque a motor can give at joint speed w: the stall torque, falling linearly to zero at the no-load
 // speed when the motor is driving in the direction of motion (a DC motor's torque-speed line).
 double limit_torque(double torque, double speed, const MotorModel& m) {
-  const double available = m.stall_torque_nm * std::max(0.0, 1.0 - std::abs(speed) / m.no_load_speed_rad_s);
   const bool motoring = torque * speed > 0.0;
-  const double cap = motoring ? available : m.stall_torque_nm;
+  const double cap = motoring ? line_of(m).available_torque_nm(speed) : m.stall_torque_nm;
   return std::clamp(torque, -cap, cap);
+}
+
+// The knee motor is position-controlled through the series spring: it chooses a speed, and the spring
+// decides its torque. The same torque-speed line as the hip's (the same motor) bounds that speed while it
+// is motoring. `pushing`: the torque the motor holds against the spring, taken along the motion (> 0:
+// motoring). Moving at w for one step dt changes that torque by k w dt, and the pair (torque after the
+// step, w) must lie under the line: w <= w0 (1 - (pushing + k w dt) / ts), i.e.
+// w <= w0 (1 - pushing / ts) / (1 + w0 k dt / ts): the explicit step stays exactly on or under the line.
+// A motor pulled along by the spring (pushing < 0) is braking until the torque changes sign, which takes
+// |pushing| / (k dt) of speed; up to the no-load speed either way.
+double knee_speed_limit(double pushing, double spring_k, double dt, const MotorModel& m) {
+  const double w0 = m.no_load_speed_rad_s, ts = m.stall_torque_nm;
+  const double on_line = w0 * (1.0 - pushing / ts) / (1.0 + w0 * spring_k * dt / ts);
+  const double braking = pushing < 0.0 ? -pushing / (spring_k * dt) : 0.0;
+  return std::clamp(std::max(on_line, braking), 0.0, w0);
 }
 
 // Dry (Coulomb) friction of a joint turning at `speed`, regularised below kFrictionSpeedScale so that it is
@@ -134,6 +150,7 @@ struct OdePlant::Impl {
     PlanarJoint hip, knee, ankle;
     dGeomID toe;
     double knee_motor_flexion = 0.0;  // absolute flexion of the knee motor's output (spring rest)
+    double knee_motor_speed = 0.0;    // its rate over the last step, rad/s (+ flexing)
     double hip_torque = 0.0;
     double knee_torque = 0.0;
     double normal_force = 0.0;
@@ -318,18 +335,24 @@ struct OdePlant::Impl {
       leg.hip.add_torque(tau_hip + drag);
       leg.hip_torque = tau_hip;
 
-      // Knee: the motor positions the rest angle of the series knee spring. Its output moves at most at
-      // the no-load speed and is back-driven when the spring torque exceeds the stall torque.
+      // Knee: the motor positions the rest angle of the series knee spring. Its output moves within its
+      // torque-speed line (knee_speed_limit) and is back-driven when the spring torque exceeds the stall
+      // torque.
       const double beta = knee_flexion(leg);
       const double beta_rate = -leg.knee.rate();
       const auto& km = model.knee_motor;
-      const double target = model.knee_stand_flexion_rad + cmd.knee_flexion_rad;
-      const double speed = std::clamp(model.knee_motor_bandwidth_per_s * (target - leg.knee_motor_flexion),
-                                      -km.no_load_speed_rad_s, km.no_load_speed_rad_s);
-      leg.knee_motor_flexion += speed * dt;
       const double k = model.knee_spring.stiffness_nm_per_rad;
+      const double target = model.knee_stand_flexion_rad + cmd.knee_flexion_rad;
+      double speed = model.knee_motor_bandwidth_per_s * (target - leg.knee_motor_flexion);
+      const double held = k * (leg.knee_motor_flexion - beta);  // the motor's torque, + flexing
+      const double pushing = speed >= 0.0 ? held : -held;
+      const double limit = knee_speed_limit(pushing, k, dt, km);
+      speed = std::clamp(speed, -limit, limit);
+      const double before = leg.knee_motor_flexion;
+      leg.knee_motor_flexion += speed * dt;
       const double max_deflection = km.stall_torque_nm / k;
       leg.knee_motor_flexion = std::clamp(leg.knee_motor_flexion, beta - max_deflection, beta + max_deflection);
+      leg.knee_motor_speed = (leg.knee_motor_flexion - before) / dt;
       const double spring_torque = k * (leg.knee_motor_flexion - beta);
       const double flex_torque = spring_torque - model.knee_spring.damping_nm_s_per_rad * beta_rate;
       // Positive hinge torque extends the knee; the bearing's friction opposes the hinge's own rate.
@@ -479,6 +502,11 @@ void OdePlant::advance(double dt_s) {
 
 double OdePlant::time_step_s() const { return impl_->dt; }
 
+std::optional<EnergyModel> OdePlant::energy_model() const {
+  const MortiModel& m = impl_->model;
+  return EnergyModel{line_of(m.hip_motor), line_of(m.knee_motor), m.total_mass_kg(), m.gravity_m_s2};
+}
+
 PlantState OdePlant::state() const {
   const Impl& m = *impl_;
   PlantState s;
@@ -495,7 +523,9 @@ PlantState OdePlant::state() const {
     s.legs[i].knee_flexion_rad = m.knee_flexion(leg) - m.model.knee_stand_flexion_rad;
     s.legs[i].hip_torque_nm = leg.hip_torque;
     s.legs[i].knee_torque_nm = leg.knee_torque;
-    s.legs[i].foot_normal_force_n = leg.sensed_force;
+    s.legs[i].hip_speed_rad_s = leg.hip.rate();
+    s.legs[i].knee_motor_speed_rad_s = leg.knee_motor_speed;
+    s.legs[i].foot_normal_force_n = leg.sensed_force;  // as the foot sensor reports it
   }
   return s;
 }

@@ -40,8 +40,8 @@ void draw_figure(const std::filesystem::path& dir, const FigureScript& figure, F
 // Fig. 5a (cost per rollout and its current minimum; falls in a band of their own above, so that their
 // cost does not flatten the walking costs), Fig. 5b (every cost term per rollout, log scale; falls in a strip
 // above it, terms below the log axis' floor in a strip below it), Fig. 6 (normalised torque of the rollouts
-// that walked, sorted by cost, falls shaded), and the parameter figures (parameter_plots): fig5a, fig5b,
-// fig6, param_slices, param_importance, param_parallel (.png/.svg) in out_dir. Never throws for what the
+// that walked, sorted by cost, falls shaded), fig6_cot beside it (their electrical cost of transport in the
+// same order), and the parameter figures (parameter_plots): fig5a, fig5b, fig6, fig6_cot, param_slices, param_importance, param_parallel (.png/.svg) in out_dir. Never throws for what the
 // data lacks; throws PlotError only when gnuplot is not installed.
 FigureReport plot_study(const StudyTrials& study, const std::filesystem::path& out_dir);
 

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/analysis/energy_claim.hpp"
 #include "cpgmatch/analysis/fall_locations.hpp"
 #include "cpgmatch/analysis/recommendation.hpp"
 #include "cpgmatch/analysis/jitter.hpp"
@@ -49,6 +50,16 @@ struct WindowStats {
   double summed_torque_median_nm = 0.0;
   double speed_mean_mps = 0.0;
 };
+
+// The fractions of a set of rollouts whose J_contact, J_periodicity (and both) are below
+// small_term_fraction x (J_feedback + J_distance).
+struct SmallTerms {
+  int rollouts = 0;
+  double contact = 0.0;
+  double periodicity = 0.0;
+  double both = 0.0;
+};
+SmallTerms small_terms(const std::vector<const Trial*>& rollouts, double small_term_fraction);
 
 struct ScienceReport {
   std::string name;
@@ -85,9 +96,17 @@ struct ScienceReport {
   double torque_speed_exponent = 0.0;         // slope of that fit; -1 would be a pure 1/speed dependence
   double rho_feedback_summed_torque = 0.0;
 
-  double fraction_contact_small = 0.0;      // of non-fallen rollouts
+  // "J_contact and J_periodicity an order of magnitude lower than the other terms": over all non-fallen
+  // rollouts (bad gaits pooled in), and over the good gaits the paper's sentence is about: the best
+  // quartile by cost of the non-fallen rollouts.
+  double fraction_contact_small = 0.0;      // of all non-fallen rollouts
   double fraction_periodicity_small = 0.0;
   double fraction_both_small = 0.0;
+  SmallTerms small_terms_best_quartile;
+
+  // The energy claim for every measure (energy_claim.hpp), and what dominates eq. 1.
+  std::vector<MeasureStats> measures;
+  double knee_steady_share_median = 0.0;
 
   // The study's answer: the rollout with the lowest GP posterior mean (recommendation.hpp). The jitter
   // test runs on these parameters.

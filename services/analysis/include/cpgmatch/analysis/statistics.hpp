@@ -26,4 +26,17 @@ LineFit least_squares(const std::vector<double>& x, const std::vector<double>& y
 // y - (intercept + slope * x) for each point of the fit.
 std::vector<double> residuals(const std::vector<double>& x, const std::vector<double>& y);
 
+// Spearman's partial correlation of x and y given z: the rank correlations combined as
+// (r_xy - r_xz r_yz) / sqrt((1 - r_xz^2) (1 - r_yz^2)). NaN when z ranks exactly like x or y.
+double partial_spearman(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& z);
+
+// The sign test: how many values lie above and below `reference` (ties dropped), and the two-sided
+// binomial p of a split at least that uneven when either side is equally likely.
+struct SignTest {
+  int above = 0;
+  int below = 0;
+  double p_two_sided = 1.0;
+};
+SignTest sign_test(const std::vector<double>& values, double reference);
+
 }  // namespace cpgmatch::analysis

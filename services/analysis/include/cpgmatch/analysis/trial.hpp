@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cpgmatch/cost.hpp"
+#include "cpgmatch/energy.hpp"
 
 namespace cpgmatch::analysis {
 
@@ -27,6 +28,7 @@ struct Trial {
   double summed_torque_nm = 0.0;   // eq. 1's numerator, N m
   double mean_speed_mps = 0.0;
   double distance_m = 0.0;
+  EnergyMeasures energy;           // what the motors spent (energy.hpp); NaN in stores from before energy
   std::map<std::string, double> params;  // every parameter of the rollout (optimised and fixed)
   bool hardware = false;           // run by a hardware worker (the report's worker_kind)
   std::string outcome;             // the report's outcome (completed, fell, error, refused, ...); empty: an older store
@@ -68,8 +70,8 @@ struct StudyTrials {
 // input). A parameter the trial lacks counts as its lower bound; a range of zero width maps to 0.5.
 std::vector<double> unit_point(const Trial& t, const std::map<std::string, Bounds>& bounds);
 
-// One rollout report (to_json(RolloutReport) in idl/transport) as a Trial. Old stores have no
-// `summed_torque_nm` (or null): it is rebuilt as normalized_torque x mean_speed_mps.
+// One rollout report (domain::to_json(RolloutReport)) as a Trial. Old stores have no
+// `summed_torque_nm` (or null): it is rebuilt as normalized_torque x mean_speed_mps; nor `energy`: NaN.
 Trial trial_from_report(int trial_id, const nlohmann::json& report, std::map<std::string, double> params);
 
 }  // namespace cpgmatch::analysis

@@ -16,6 +16,12 @@ nlohmann::json to_json(const RolloutReport& report);
 // outcome this release does not know.
 RolloutReport report_from_json(const nlohmann::json& j);
 
+// A report's `energy` object (also `cpgmatch rollout --json`'s): totals, per-metre and cost-of-transport
+// figures, and per joint ("hip"/"knee": four legs FL, FR, HL, HR each) work, heat, electrical energy and
+// signed mean torque. NaN is null; energy_from_json reads a missing object or key as NaN.
+nlohmann::json to_json(const EnergyMeasures& energy);
+EnergyMeasures energy_from_json(const nlohmann::json& j);
+
 nlohmann::json to_json(const StudyState& state);
 nlohmann::json to_json(const WorkerAnnouncement& worker);
 nlohmann::json to_json(const TrialRecord& trial);

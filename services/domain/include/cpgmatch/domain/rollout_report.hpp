@@ -10,6 +10,7 @@
 
 #include "cpgmatch/cost.hpp"
 #include "cpgmatch/domain/outcome.hpp"
+#include "cpgmatch/energy.hpp"
 #include "cpgmatch/rollout.hpp"
 
 namespace cpgmatch::domain {
@@ -41,6 +42,10 @@ struct RolloutSummary {
   double fall_time_s = -1.0;        // -1 when it did not fall
   double distance_m = std::nan("");
   double mean_speed_mps = std::nan("");
+  // What the motors spent (energy.hpp): positive work per joint and per metre, Joule loss and electrical
+  // energy of the DC-motor model, costs of transport, signed mean torques. NaN: not measured (a report from
+  // a release before energy, a plant without a motor model).
+  EnergyMeasures energy;
 };
 
 struct RolloutReport {

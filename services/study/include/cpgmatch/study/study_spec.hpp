@@ -45,8 +45,15 @@ namespace cpgmatch::study {
 // spec (a new cost term, another contact model, a fixed bug in the feedback). Part of every spec's hash.
 // History: 1 = every release so far, specs included: a store from before specs is migrated to version 1
 // (its rollouts computed what this release computes; a diverged simulation is now reported as diverged
-// instead of as a fall, which changes the cost of no rollout that ran).
-inline constexpr std::uint32_t kObjectiveVersion = 1;
+// instead of as a fall, which changes the cost of no rollout that ran). 2 = the knee motor runs within the
+// same torque-speed line as the hip (issue 26; before, it moved at its no-load speed whatever torque it
+// held), which changes the gait, hence the cost, of every rollout whose knee motor is loaded while it moves;
+// reports carry the motors' energy from this version on.
+inline constexpr std::uint32_t kObjectiveVersion = 2;
+// What a store written before specs existed computed: every release before specs was version 1. Its studies
+// are migrated with this version, not the current one, so a worker of another version refuses their
+// candidates instead of mixing two objectives in one study.
+inline constexpr std::uint32_t kVersionBeforeSpecs = 1;
 
 // Where a stored spec came from.
 inline constexpr const char* kOriginSubmitted = "submitted";

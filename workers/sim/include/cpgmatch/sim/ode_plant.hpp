@@ -32,6 +32,8 @@ class OdePlant final : public Plant {
   void advance(double dt_s) override;
   PlantState state() const override;
   double time_step_s() const override;
+  // The model's hip and knee motor lines and its total mass.
+  std::optional<EnergyModel> energy_model() const override;
 
  private:
   struct Impl;
