@@ -8,28 +8,32 @@
 
 namespace cpgmatch::service {
 
-ModelSnapshot ModelSnapshot::of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials) {
+namespace {
+
+// The recommended observation (either optimizer's Recommendation: its index and predicted cost) as a snapshot.
+template <typename Recommendation>
+ModelSnapshot snapshot(const std::optional<Recommendation>& rec, const std::vector<bo::Observation>& observations,
+                       const bo::SearchSpace& space, const std::vector<int>& trials) {
   ModelSnapshot m;
-  if (const auto rec = optimizer.recommended()) {
+  if (rec) {
     m.has_recommendation = true;
-    m.recommended_trial = told_trials.at(rec->observation);
+    m.recommended_trial = trials.at(rec->observation);
     m.recommended_predicted_cost = rec->predicted;
-    m.recommended_x = optimizer.observations()[rec->observation].x;
-    m.recommended_params = optimizer.space().to_named(m.recommended_x);
+    m.recommended_x = observations[rec->observation].x;
+    m.recommended_params = space.to_named(m.recommended_x);
   }
   return m;
 }
 
+}  // namespace
+
+ModelSnapshot ModelSnapshot::of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials) {
+  return snapshot(optimizer.recommended(), optimizer.observations(), optimizer.space(), told_trials);
+}
+
 ModelSnapshot ModelSnapshot::of(bo::HardwareOptimizer& optimizer, const std::vector<int>& told_hardware_trials) {
-  ModelSnapshot m;
-  if (const auto rec = optimizer.recommended()) {
-    m.has_recommendation = true;
-    m.recommended_trial = told_hardware_trials.at(rec->observation);
-    m.recommended_predicted_cost = rec->predicted;
-    m.recommended_x = optimizer.hardware_observations()[rec->observation].x;
-    m.recommended_params = optimizer.space().to_named(m.recommended_x);
-  }
-  return m;
+  auto rec = optimizer.recommended();  // first: it fits the model when its observations changed
+  return snapshot(rec, optimizer.hardware_observations(), optimizer.space(), told_hardware_trials);
 }
 
 bo::HardwareOptimizerOptions hardware_model_options(const study::StudyConfig& config) {
