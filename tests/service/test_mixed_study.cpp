@@ -13,69 +13,21 @@
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 #include "cpgmatch/service/validation_sets.hpp"
+#include "coordinator_test_support.hpp"
 
 namespace cpgmatch::service {
 namespace {
 
-struct Outbox2 : Outbox {
-  std::vector<domain::Candidate> candidates;
-  std::vector<domain::TrialRecord> trials;
-  std::vector<domain::StudyState> states;
-  std::vector<domain::CommandReply> replies;
-  void send_candidate(const domain::Candidate& c) override { candidates.push_back(c); }
-  void retire_candidate(const domain::Candidate&) override {}
-  void publish_trial(const domain::TrialRecord& t) override { trials.push_back(t); }
-  void retire_trial(const domain::TrialRecord&) override {}
-  void publish_state(const domain::StudyState& s) override { states.push_back(s); }
-  void reply(const domain::CommandReply& r) override { replies.push_back(r); }
-};
+using test_support::RecordingOutbox;
+using test_support::study_error;
 
 constexpr const char* kMixedStudy =
     "name: mixed\nbudget: 6\ninitial_points: 3\nseed: 7\nrollout: {entrain_s: 1, eval_s: 1}\n"
     "validation: {hardware_sets: 4, spread: 0.1}\n";
 
-class MixedStudyTest : public ::testing::Test {
+class MixedStudyTest : public test_support::CoordinatorFixture {
  protected:
-  void SetUp() override {
-    path_ = (std::filesystem::temp_directory_path() / ("mixed-" + std::to_string(getpid()) + "-" +
-                                                       ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".db")).string();
-    std::filesystem::remove(path_);
-    open();
-  }
-  void TearDown() override {
-    coordinator_.reset();
-    store_.reset();
-    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path_ + suffix);
-  }
-  void open() {
-    coordinator_.reset();
-    store_ = std::make_unique<study::StudyStore>(path_);
-    out_ = Outbox2{};
-    answered_ = 0;
-    CoordinatorOptions options;
-    options.wall_clock_s = [] { return 1.7e9; };
-    coordinator_ = std::make_unique<Coordinator>(*store_, out_, options, [](const std::string&) {},
-                                                 [](const std::string&) {});
-  }
-  int submit(const std::string& yaml) {
-    domain::StudyCommand c;
-    c.correlation_id = ++correlation_;
-    c.client_id = "test";
-    c.kind = domain::CommandKind::kSubmit;
-    c.study_yaml = yaml;
-    coordinator_->handle_command(c, now_);
-    EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
-    return static_cast<int>(out_.replies.back().study_id);
-  }
-  void worker(const std::string& id, int slots, domain::WorkerKind kind) {
-    domain::WorkerAnnouncement w;
-    w.worker_id = id;
-    w.worker_key = domain::worker_key(id);
-    w.slots = slots;
-    w.accepting = true;
-    w.kind = kind;
-    coordinator_->handle_worker(w, now_);
-  }
+  MixedStudyTest() : CoordinatorFixture("mixed") {}
   // Keeps both workers alive (as their heartbeats would).
   void heartbeat() {
     worker("sim", sim_slots_, domain::WorkerKind::kSimulation);
@@ -85,16 +37,11 @@ class MixedStudyTest : public ::testing::Test {
   void answer_all() {
     while (answered_ < out_.candidates.size()) {
       const domain::Candidate& c = out_.candidates[answered_++];
-      domain::RolloutReport r;
-      r.id = c.id;
-      r.worker_id = c.worker_id;
-      r.summary.terms = CostTerms{};
-      r.summary.distance_m = 0.0;
-      // ok follows the outcome
       const bool hw = c.worker_id == "robot";
-      r.worker_kind = hw ? domain::WorkerKind::kHardware : domain::WorkerKind::kSimulation;
-      r.summary.cost = (hw ? 4.0 : 1.0) + 0.1 * c.id.trial_id;
-      coordinator_->handle_report(r, now_);
+      coordinator_->handle_report(
+          test_support::completed_report(c, (hw ? 4.0 : 1.0) + 0.1 * c.id.trial_id,
+                                         hw ? domain::WorkerKind::kHardware : domain::WorkerKind::kSimulation),
+          now_);
     }
   }
   void run(int rounds) {
@@ -126,13 +73,6 @@ class MixedStudyTest : public ::testing::Test {
     return out;
   }
 
-  std::string path_;
-  std::unique_ptr<study::StudyStore> store_;
-  Outbox2 out_;
-  std::unique_ptr<Coordinator> coordinator_;
-  std::size_t answered_ = 0;
-  std::uint64_t correlation_ = 0;
-  double now_ = 1000.0;
   bool hardware_ = true;
   int sim_slots_ = 2;
 };
@@ -283,15 +223,6 @@ TEST_F(MixedStudyTest, AStoreWithoutThePhaseColumnIsMigratedInPlace) {
   const auto s = store_->load(id);
   ASSERT_EQ(s->trials.size(), 2);
   for (const auto& t : s->trials) EXPECT_EQ(t.phase, "exploration");
-}
-
-std::string study_error(const std::string& yaml) {
-  try {
-    (void)study::load_study_config_text(yaml, "s.yaml");
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
 }
 
 TEST(MixedStudyConfig, ValidationKeysHaveDefaultsAndRangesNamedWithFileAndLine) {

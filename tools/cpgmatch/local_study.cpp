@@ -116,10 +116,13 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   result.config = cfg;
   // A local study starts simulation workers only on a private domain: work meant for a robot would wait
   // for ever. Mixed and hardware-only studies go to a service with an agent (`study submit`).
-  if (cfg.validation.enabled || cfg.explore_on == study::WorkerKindWanted::kHardware) {
+  if (cfg.needs_hardware()) {
+    const char* key = cfg.hardware.models_hardware() ? "hardware"
+                      : cfg.validation.enabled       ? "validation"
+                                                     : "explore_on";
     throw InputError(fmt::format("{}: {}: `study run` has simulation workers only; submit this study to an "
                                  "optimizer service with a robot agent on its domain (`cpgmatch study submit`)",
-                                 opts.config_source, cfg.validation.enabled ? "validation" : "explore_on"));
+                                 opts.config_source, key));
   }
   if (opts.workers < 0) throw InputError("--workers must be >= 1");
   const int workers = opts.workers > 0 ? opts.workers : std::max(1u, std::thread::hardware_concurrency());

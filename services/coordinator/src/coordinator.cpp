@@ -331,13 +331,12 @@ void Coordinator::handle_unspent(StudyRun& s, int trial_id, const domain::Rollou
   const bool deterministic = r.outcome == domain::Outcome::kDiverged && r.worker_kind == domain::WorkerKind::kSimulation;
   if (fault && (deterministic || faults >= options_.max_fault_retries)) {
     // Spent after all, as a failure the model never sees (excluded): the point was tried often enough.
-    const Eigen::VectorXd x = f.x;
-    const bool validation = f.validation;
+    const InFlight spent = f;
+    const Eigen::VectorXd& x = spent.x;
     if (!store_.complete_trial(r, wall_now())) return;
     const domain::Candidate retired = s.candidate(store_.store_id(), trial_id);
     s.in_flight.erase(trial_id);
-    if (validation) s.account_validation(trial_id, r);
-    else count_report(s, trial_id, x, r);
+    account(s, trial_id, spent, r);
     out_.retire_candidate(retired);
     if (!s.records_retired) out_.publish_trial(s.trial_record(trial_id, x, r));
     warn_(fmt::format("study {} trial {}: {} {} times (last on {}: {}); spent as a failure the model does not learn "
@@ -405,11 +404,16 @@ bool Coordinator::start_validation_if_due(StudyRun& s) {
   return true;
 }
 
+bool Coordinator::hardware_proposals_due(const StudyRun& s) {
+  return s.hardware_to_propose() > 0 && static_cast<int>(s.told_trials.size()) >= s.config.hardware.start_after;
+}
+
 void Coordinator::note_hardware_wait(StudyRun& s, double now_s) {
   bool waits = false;
   if (s.state == StudyStatus::kRunning && !has_hardware_worker()) {
-    for (const auto& [trial_id, f] : s.in_flight) waits |= f.worker_id.empty() && (f.validation || s.explores_on_hardware());
+    for (const auto& [trial_id, f] : s.in_flight) waits |= f.worker_id.empty() && (f.hardware_only() || s.explores_on_hardware());
     waits |= s.explores_on_hardware() && s.completed < s.config.budget;
+    waits |= hardware_proposals_due(s);
   }
   // Work that waits with workers of its kind on the domain, none of which may take it: say who and why.
   std::string blocked;
@@ -417,8 +421,9 @@ void Coordinator::note_hardware_wait(StudyRun& s, double now_s) {
     bool sim_work = false, hw_work = false;
     for (const auto& [trial_id, f] : s.in_flight) {
       if (!f.worker_id.empty()) continue;
-      (f.validation || s.explores_on_hardware() ? hw_work : sim_work) = true;
+      (f.hardware_only() || s.explores_on_hardware() ? hw_work : sim_work) = true;
     }
+    hw_work |= hardware_proposals_due(s);
     // Exploration still to run whose points wait (proposed, or not yet asked for) with no trial in flight.
     if (s.exploring_in_flight() == 0 && s.completed < s.config.budget) {
       (s.explores_on_hardware() ? hw_work : sim_work) = true;
@@ -455,11 +460,14 @@ void Coordinator::note_hardware_wait(StudyRun& s, double now_s) {
   s.waiting_message = blocked;
   if (s.state != StudyStatus::kRunning) return;  // its message is the final one now
   // A transient condition: in the published state only, never in the store (a restart re-derives it).
-  s.message = waits ? fmt::format("waiting_for_hardware: {} needs a hardware worker; none on the domain",
-                                  s.validation_started ? fmt::format("validation ({}/{} sets run)", s.validated,
-                                                                     s.config.validation.hardware_sets)
-                                                       : std::string("the exploration"))
-                    : blocked;
+  std::string work = "the exploration";
+  if (s.validation_started) {
+    work = fmt::format("validation ({}/{} sets run)", s.validated, s.config.validation.hardware_sets);
+  } else if (s.models_hardware()) {
+    work = fmt::format("{} ({}/{} hardware rollouts run)", study::to_string(s.config.hardware.strategy), s.hardware_done,
+                       s.config.hardware.budget);
+  }
+  s.message = waits ? fmt::format("waiting_for_hardware: {} needs a hardware worker; none on the domain", work) : blocked;
   if (!s.message.empty()) info_(fmt::format("study {}: {}", s.id, s.message));
   s.dirty = true;
 }
@@ -468,7 +476,10 @@ void Coordinator::note_hardware_wait(StudyRun& s, double now_s) {
 void Coordinator::release_optimizer_if_done(StudyRun& s) {
   // A retired study's model is no longer needed (s.model keeps the recommendation), unless a stopped
   // study's candidate still reports or reports wait to be told.
-  if (s.records_retired && s.in_flight.empty() && s.untold.empty()) s.optimizer.reset();
+  if (s.records_retired && s.in_flight.empty() && s.untold.empty()) {
+    s.optimizer.reset();
+    s.hardware_optimizer.reset();
+  }
 }
 
 int Coordinator::apply_model_results() { return models_.apply_results(); }
@@ -479,6 +490,11 @@ void Coordinator::apply_model_result(ModelJobResult result) {
   if (study == nullptr) return;
   study->model_busy = false;
   study->asking = 0;
+  if (result.hardware) {
+    apply_hardware_result(*study, std::move(result));
+    release_optimizer_if_done(*study);
+    return;
+  }
   if (result.fitted) {
     store_.save_model_state(result.study_id, result.fitted->second);
     study->model = std::move(result.fitted->first);
@@ -489,6 +505,43 @@ void Coordinator::apply_model_result(ModelJobResult result) {
   }
   study->proposed.insert(study->proposed.end(), result.points.begin(), result.points.end());
   release_optimizer_if_done(*study);  // a finished study reopened with untold reports kept it for this job
+}
+
+void Coordinator::apply_hardware_result(StudyRun& s, ModelJobResult result) {
+  if (result.hardware_fitted) {
+    store_.save_hardware_model_state(s.id, result.hardware_fitted->second);
+    s.hardware_model = std::move(result.hardware_fitted->first);
+    s.dirty = true;
+  }
+  if (!result.error.empty()) {
+    warn_(fmt::format("study {}: hardware model job ({}) failed: {}", s.id, result.ask > 0 ? "tell, then ask" : "tell",
+                      result.error));
+  }
+  if (!result.hardware_point || !s.is_open()) return;
+  // Stored at once, without a worker (as a validation set): the dispatcher gives it to a robot of the study,
+  // and a restart issues this very point.
+  const bo::HardwareProposal& p = *result.hardware_point;
+  study::StoredTrial t;
+  t.trial_id = s.next_trial_id++;
+  t.x = p.x;
+  t.issued_at_s = wall_now();
+  t.phase = "hardware";
+  store_.add_trials(s.id, {t});
+  InFlight f{t.x, 0, "", 0.0, {}};
+  f.hardware = true;
+  s.in_flight[t.trial_id] = std::move(f);
+  s.dirty = true;
+  const std::string what =
+      fmt::format("study {} trial {}: hardware proposal {} of {} (predicted fall probability {:.3f}, expected improvement "
+                  "{:.3g})",
+                  s.id, t.trial_id, s.hardware_done + s.hardware_in_flight(), s.config.hardware.budget,
+                  p.fall_probability, p.expected_improvement);
+  if (p.within_fall_limit) {
+    info_(what);
+  } else {
+    warn_(what + fmt::format("; every candidate was above the fall limit {:.2f}: this is the least likely to fall",
+                             s.config.hardware.max_fall_probability));
+  }
 }
 
 // ---- reports -------------------------------------------------------------------------------------
@@ -548,8 +601,8 @@ void Coordinator::handle_report(const domain::RolloutReport& r, double now_s,
     }
     return handle_unspent(*s, trial_id, r, now_s);
   }
-  const Eigen::VectorXd x = it->second.x;
-  const bool validation = it->second.validation;
+  const InFlight spent = it->second;
+  const Eigen::VectorXd& x = spent.x;
   if (!store_.complete_trial(r, wall_now())) {
     info_(fmt::format("ignored a duplicate {} (already in the store)", what));
     return;
@@ -557,11 +610,7 @@ void Coordinator::handle_report(const domain::RolloutReport& r, double now_s,
   pool_.release(it->second.worker_id, s->id, trial_id);
   const domain::Candidate retired = s->candidate(store_.store_id(), trial_id);
   s->in_flight.erase(it);
-  if (validation) {
-    s->account_validation(trial_id, r);
-  } else {
-    count_report(*s, trial_id, x, r);
-  }
+  account(*s, trial_id, spent, r);
   out_.retire_candidate(retired);
   if (!s->records_retired) out_.publish_trial(s->trial_record(trial_id, x, r));  // else: the store has it
   if (!r.ok()) warn_(fmt::format("study {} trial {}: rollout failed on {}: {}", s->id, trial_id, r.worker_id, r.error));
@@ -575,12 +624,29 @@ void Coordinator::count_report(StudyRun& s, int trial_id, const Eigen::VectorXd&
   s.account_report(trial_id, x, r);
 }
 
+void Coordinator::account(StudyRun& s, int trial_id, const InFlight& spent, const domain::RolloutReport& r) {
+  if (spent.validation) {
+    s.account_validation(trial_id, r);
+  } else if (spent.hardware) {
+    s.account_hardware(trial_id, spent.x, r);  // for the hardware model's next job
+  } else {
+    count_report(s, trial_id, spent.x, r);
+  }
+}
+
 void Coordinator::finish_if_complete(StudyRun& s) {
   if (s.state != StudyStatus::kRunning || !s.complete()) return;
   const auto& v = s.config.validation;
   s.state = StudyStatus::kDone;
   s.message = fmt::format("{} rollouts, best cost {:.4g} (trial {})", s.completed, s.best_cost, s.best_trial);
   if (v.enabled) s.message += fmt::format("; {} validation sets run on hardware", s.validated);
+  if (s.models_hardware()) {
+    s.message += fmt::format("; {} hardware rollouts ({})", s.hardware_done, study::to_string(s.config.hardware.strategy));
+    if (s.hardware_model.has_recommendation) {
+      s.message += fmt::format(", answer: hardware trial {} (predicted cost {:.4g})", s.hardware_model.recommended_trial,
+                               s.hardware_model.recommended_predicted_cost);
+    }
+  }
   store_.set_state(s.id, to_string(s.state), s.message);
   info_(fmt::format("study {} '{}' done: {}", s.id, s.name, s.message));
   s.dirty = true;
@@ -600,6 +666,7 @@ void Coordinator::retire_finished(StudyRun& s, double now_s) {
   if (now_s < s.records_leave_at_s || s.model_busy || !s.untold.empty()) return;
   std::vector<int> records = s.told_trials;
   records.insert(records.end(), s.validation_trials.begin(), s.validation_trials.end());
+  records.insert(records.end(), s.hardware_trials.begin(), s.hardware_trials.end());
   for (const int trial_id : records) {
     domain::TrialRecord key;
     key.study_id = s.id;
@@ -636,7 +703,11 @@ void Coordinator::tick(double now_s) {
   }
   const std::vector<StudyRun*> order = round_robin_order();
   const FreeSlots free = dispatcher_.issue_waiting_work(order, now_s);
-  models_.start_jobs(studies_, order, free.simulation, free.hardware);
+  models_.start_jobs(studies_, order, free.simulation, free.hardware, [&](const StudyRun& s) {
+    int usable = 0;
+    for (const PoolWorker* w : pool_.free_slots(true)) usable += s.may_serve(*w, now_s) ? 1 : 0;
+    return usable;
+  });
   // Without model threads the jobs just started have finished already: issue their points now.
   if (apply_model_results() > 0) dispatcher_.issue_waiting_work(order, now_s);
   bool validation_started = false;

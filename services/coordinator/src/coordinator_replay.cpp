@@ -110,18 +110,20 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
   const int id = fresh.id;
   auto [it, inserted] = studies_.emplace(id, std::move(fresh));
   StudyRun& s = it->second;
-  std::vector<const study::StoredTrial*> done, validated;
+  std::vector<const study::StoredTrial*> done, validated, hardware;
   if (stored != nullptr) {
     for (const auto& t : stored->trials) {
       s.next_trial_id = std::max(s.next_trial_id, t.trial_id + 1);
       const bool validation = t.phase == "validation";
+      const bool on_hardware = t.phase == "hardware";
       if (validation) s.validation_started = true;
       if (t.status == study::TrialStatus::kDone) {
-        (validation ? validated : done).push_back(&t);
+        (validation ? validated : on_hardware ? hardware : done).push_back(&t);
       } else {
         // Re-issued once a slot is free; the worker it last went to may still report that attempt. A
-        // validation set stored but never issued has no worker yet: it is issued, not re-issued.
-        InFlight f{t.x, t.attempt, "", 0.0, {}, validation};
+        // validation set or hardware proposal stored but never issued has no worker yet: it is issued, not
+        // re-issued.
+        InFlight f{t.x, t.attempt, "", 0.0, {}, validation, on_hardware};
         if (!t.worker_id.empty()) f.issued_to[t.attempt] = t.worker_id;
         s.in_flight[t.trial_id] = std::move(f);
       }
@@ -169,6 +171,11 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
   }
   s.optimizer = std::make_shared<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
   s.model = ModelSnapshot::of(*s.optimizer, s.told_trials);
+  // Hardware reports in the order they were counted, which is the order the hardware model was told them.
+  std::stable_sort(hardware.begin(), hardware.end(), [](const study::StoredTrial* a, const study::StoredTrial* b) {
+    return a->report_seq != b->report_seq ? a->report_seq < b->report_seq : a->trial_id < b->trial_id;
+  });
+  if (s.models_hardware()) restore_hardware_model(s, stored, observations, hardware);
   for (const auto* t : done) {
     const int trial_id = t->trial_id;
     std::string why;
@@ -187,6 +194,14 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
     s.account_validation(t->trial_id, report);
     if (s.is_open()) out_.publish_trial(s.trial_record(t->trial_id, t->x, report));
   }
+  for (const auto* t : hardware) {
+    const domain::RolloutReport report = replayed_report(*t, nullptr);
+    // Counters only: restore_hardware_model() put each in the model or in hardware_untold.
+    ++s.hardware_done;
+    s.hardware_trials.push_back(t->trial_id);
+    s.count_outcome(report);
+    if (s.is_open()) out_.publish_trial(s.trial_record(t->trial_id, t->x, report));
+  }
   s.records_retired = !s.is_open();
   if (s.is_open()) out_.publish_spec(s.spec_publication());  // before any of its candidates
   release_optimizer_if_done(s);
@@ -198,6 +213,53 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
   }
   finish_if_complete(s);
   s.dirty = true;
+}
+
+void Coordinator::restore_hardware_model(StudyRun& s, const study::StoredStudy* stored,
+                                         const std::vector<bo::Observation>& simulated,
+                                         const std::vector<const study::StoredTrial*>& hardware) {
+  // The hardware model was told the simulated results in the optimizer's order (`simulated`, what the
+  // optimizer holds now) and the hardware reports in the order counted. Its saved state covers the first k
+  // and h of them (its last job told exactly those, then fitted): restored on those with one factorisation,
+  // the rest wait for its next job, as they did in the uninterrupted run. Without a saved state it was never
+  // told anything: everything waits.
+  const bo::HardwareOptimizerOptions options = hardware_model_options(s.config);
+  std::size_t k = 0, h = 0;
+  std::optional<bo::HardwareModelState> state;
+  if (stored != nullptr && stored->hardware_model_state.is_object()) {
+    try {
+      state = bo::hardware_model_state_from_json(stored->hardware_model_state);
+      k = static_cast<std::size_t>(std::max(0, state->simulation_observations));
+      h = static_cast<std::size_t>(std::max(0, state->hardware_observations));
+      if (k > simulated.size() || h > hardware.size()) {
+        throw InputError(fmt::format("it covers {} simulated and {} hardware results, the store holds {} and {}", k, h,
+                                     simulated.size(), hardware.size()));
+      }
+    } catch (const std::exception& e) {
+      warn_(fmt::format("study {}: saved hardware model state unusable ({}); telling every result again", s.id,
+                        e.what()));
+      state.reset();
+      k = h = 0;
+    }
+  }
+  std::vector<bo::Observation> sim_told(simulated.begin(), simulated.begin() + static_cast<std::ptrdiff_t>(k));
+  std::vector<bo::Observation> hw_told;
+  for (std::size_t i = 0; i < hardware.size(); ++i) {
+    const bo::Observation o = stored_observation(*hardware[i]);
+    if (i < h) {
+      hw_told.push_back(o);
+      s.hardware_told_trials.push_back(hardware[i]->trial_id);
+    } else {
+      s.hardware_untold.emplace_back(hardware[i]->trial_id, o);
+    }
+  }
+  for (std::size_t i = k; i < simulated.size(); ++i) s.hardware_untold_sim.emplace_back(s.told_trials.at(i), simulated[i]);
+  for (const auto& o : simulated) s.simulation_successes += o.failed ? 0 : 1;
+  s.hardware_optimizer = std::make_shared<bo::HardwareOptimizer>(
+      state ? bo::HardwareOptimizer::restore(s.config.space, options, sim_told, hw_told, *state)
+            : bo::HardwareOptimizer(s.config.space, options));
+  // Not stale after a restore (its fit counts are its observations): no fit here.
+  s.hardware_model = ModelSnapshot::of(*s.hardware_optimizer, s.hardware_told_trials);
 }
 
 bo::BayesianOptimizer Coordinator::restored_optimizer(const StudyRun& s, const study::StoredStudy* stored,

@@ -24,10 +24,10 @@ FreeSlots Dispatcher::issue_waiting_work(const std::vector<StudyRun*>& order, do
   for (StudyRun* s : order) {
     if (s->state != StudyStatus::kRunning) continue;
     Slots& explore = s->explores_on_hardware() ? hw : sim;
-    // Re-issues (and stored validation sets) first: they are the oldest work.
+    // Re-issues (and stored validation sets and hardware proposals) first: they are the oldest work.
     for (auto& [trial_id, f] : s->in_flight) {
       if (!f.worker_id.empty()) continue;
-      Slots& kind = f.validation ? hw : explore;
+      Slots& kind = f.hardware_only() ? hw : explore;
       if (issues_left_ <= 0 || kind.usable_for(*s, now_s) == 0) continue;
       issue(*s, trial_id, *kind.slots[kind.next++], now_s, !f.issued_to.empty());
       --issues_left_;
@@ -66,9 +66,9 @@ void Dispatcher::issue(StudyRun& study, int trial_id, PoolWorker& worker, double
   if (reissue) {
     ++f.attempt;
     store_.reissue(study.id, trial_id, f.attempt, worker.id, wall_now_());
-  } else if (f.validation) {
-    // Stored without a worker at the phase's start: record who has it, so a restart after this point
-    // still accepts that worker's report.
+  } else if (f.hardware_only()) {
+    // Stored without a worker (a validation set at the phase's start, a hardware proposal when the model
+    // made it): record who has it, so a restart after this point still accepts that worker's report.
     store_.reissue(study.id, trial_id, f.attempt, worker.id, wall_now_());
   }
   f.worker_id = worker.id;

@@ -27,6 +27,12 @@ std::optional<ModelWork> AsynchronousModel::prepare(StudyRun& s, int ask, const 
   std::vector<bo::Observation> tells;
   for (auto& [trial_id, observation] : s.untold) {
     s.told_trials.push_back(trial_id);  // the order the optimizer will hold them in
+    if (s.hardware_optimizer) {
+      // The hardware model learns the simulated results in the order the optimizer does (a restart
+      // rebuilds both from that order), at its own next job.
+      s.hardware_untold_sim.emplace_back(trial_id, observation);
+      if (!observation.failed) ++s.simulation_successes;
+    }
     tells.push_back(std::move(observation));
   }
   s.untold.clear();
@@ -37,7 +43,9 @@ std::optional<ModelWork> AsynchronousModel::prepare(StudyRun& s, int ask, const 
   return [id, hook, optimizer = s.optimizer, told_trials = s.told_trials, tells = std::move(tells),
           pending = std::move(pending), ask]() -> ModelJobResult {
     if (hook) hook(id);
-    ModelJobResult result{id, ask, std::nullopt, {}, {}};
+    ModelJobResult result;
+    result.study_id = id;
+    result.ask = ask;
     try {
       if (!tells.empty()) {
         optimizer->tell_batch(tells);  // one fit for every report since the last job
@@ -113,7 +121,9 @@ std::optional<ModelWork> LockstepModel::prepare(StudyRun& s, int ask, const std:
   return [id, hook, optimizer = s.optimizer, told_trials = s.told_trials, tells = std::move(tells),
           xs = std::move(xs), ask, lag, told0, k0]() mutable -> ModelJobResult {
     if (hook) hook(id);
-    ModelJobResult result{id, ask, std::nullopt, {}, {}};
+    ModelJobResult result;
+    result.study_id = id;
+    result.ask = ask;
     try {
       int told = told0;
       auto tell_next = [&] { optimizer->tell_batch({tells[static_cast<std::size_t>(told++ - told0)]}); };
@@ -139,6 +149,60 @@ const ModelStrategy& strategy_for(const StudyRun& study) {
   return study.config.lockstep > 0 ? static_cast<const ModelStrategy&>(lockstep) : asynchronous;
 }
 
+// ---- the hardware model ------------------------------------------------------------------------
+
+std::optional<HardwareModelJob::Kind> HardwareModelJob::due(const StudyRun& s, int usable_hardware_slots) {
+  if (!s.hardware_optimizer || s.state != StudyStatus::kRunning) return std::nullopt;
+  const bool point_waits = std::any_of(s.in_flight.begin(), s.in_flight.end(), [](const auto& kv) {
+    return kv.second.hardware && kv.second.worker_id.empty();
+  });
+  if (usable_hardware_slots > 0 && s.hardware_to_propose() > 0 && !point_waits &&
+      static_cast<int>(s.told_trials.size()) >= s.config.hardware.start_after && s.simulation_successes >= 2) {
+    return Kind::kAsk;
+  }
+  if (!s.hardware_untold.empty()) return Kind::kTell;
+  const bool nothing_left_to_run = s.completed >= s.config.budget && s.in_flight.empty() && s.untold.empty() &&
+                                   s.hardware_to_propose() == 0;
+  if (nothing_left_to_run && !s.hardware_untold_sim.empty()) return Kind::kTell;
+  return std::nullopt;
+}
+
+ModelWork HardwareModelJob::prepare(StudyRun& s, Kind kind, const std::function<void(int)>& hook) {
+  std::vector<bo::Observation> simulated, hardware;
+  for (auto& [trial_id, observation] : s.hardware_untold_sim) simulated.push_back(std::move(observation));
+  for (auto& [trial_id, observation] : s.hardware_untold) {
+    s.hardware_told_trials.push_back(trial_id);
+    hardware.push_back(std::move(observation));
+  }
+  s.hardware_untold_sim.clear();
+  s.hardware_untold.clear();
+  std::vector<Eigen::VectorXd> pending;  // hardware points on (or waiting for) a robot
+  for (const auto& [trial_id, f] : s.in_flight) {
+    if (f.hardware) pending.push_back(f.x);
+  }
+  const int id = s.id;
+  const bool ask = kind == Kind::kAsk;
+  return [id, hook, model = s.hardware_optimizer, told = s.hardware_told_trials, simulated = std::move(simulated),
+          hardware = std::move(hardware), pending = std::move(pending), ask]() -> ModelJobResult {
+    if (hook) hook(id);
+    ModelJobResult result;
+    result.study_id = id;
+    result.ask = ask ? 1 : 0;
+    result.hardware = true;
+    try {
+      for (const auto& o : simulated) model->tell_simulation(o);
+      for (const auto& o : hardware) model->tell_hardware(o);
+      if (ask) result.hardware_point = model->ask(pending);  // fits the model when its data changed
+      // The answer from the same fit (a tell-only job fits here), and the state a restart resumes from.
+      ModelSnapshot answer = ModelSnapshot::of(*model, told);
+      result.hardware_fitted.emplace(std::move(answer), bo::hardware_model_state_to_json(model->model_state()));
+    } catch (const std::exception& e) {
+      result.error = e.what();
+    }
+    return result;
+  };
+}
+
 // ---- the scheduler -----------------------------------------------------------------------------
 
 ModelScheduler::ModelScheduler(ModelSchedulerOptions options, std::function<void(ModelJobResult)> apply,
@@ -149,7 +213,8 @@ ModelScheduler::ModelScheduler(ModelSchedulerOptions options, std::function<void
       pool_(options_.threads, options_.on_result) {}
 
 void ModelScheduler::start_jobs(std::map<int, StudyRun>& studies, const std::vector<StudyRun*>& order,
-                                int free_simulation, int free_hardware) {
+                                int free_simulation, int free_hardware,
+                                const std::function<int(const StudyRun&)>& hardware_slots_for) {
   // Slots that a job already running will fill are not asked for twice; each study asks only for slots
   // of the kind its exploration runs on. Points already proposed and waiting for a slot (the issue cap held
   // them back) will fill free slots too.
@@ -161,6 +226,15 @@ void ModelScheduler::start_jobs(std::map<int, StudyRun>& studies, const std::vec
   int new_budget = options_.max_new_points_per_tick;  // points asked for this tick, over all studies
   for (StudyRun* s : order) {
     if (s->model_busy || !s->optimizer) continue;
+    if (s->hardware_optimizer) {
+      const int usable = std::min(wanted[1], hardware_slots_for(*s));
+      if (const auto kind = HardwareModelJob::due(*s, usable)) {
+        if (*kind == HardwareModelJob::Kind::kAsk) --wanted[1];
+        s->model_busy = true;
+        submit(*s, HardwareModelJob::prepare(*s, *kind, options_.job_hook));
+        continue;  // its simulation job, if one is due, at the next tick
+      }
+    }
     int n = 0;
     int& wanted_here = wanted[s->explores_on_hardware()];
     if (s->state == StudyStatus::kRunning) {
@@ -192,7 +266,11 @@ void ModelScheduler::start_job(std::map<int, StudyRun>& studies, StudyRun& s, in
   s.optimizer->set_threads(busy + 1 < std::max(options_.threads, 1) ? options_.acquisition_threads : 1);
   s.model_busy = true;
   s.asking = ask;
-  pool_.submit(static_cast<std::uint64_t>(s.id), [work = std::move(*work), this]() -> ModelPool::Completion {
+  submit(s, std::move(*work));
+}
+
+void ModelScheduler::submit(StudyRun& s, ModelWork work) {
+  pool_.submit(static_cast<std::uint64_t>(s.id), [work = std::move(work), this]() -> ModelPool::Completion {
     // On the model thread: the model work. Its result is applied on the event thread.
     return [result = work(), this]() mutable { apply_(std::move(result)); };
   });

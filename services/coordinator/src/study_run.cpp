@@ -8,27 +8,70 @@
 
 namespace cpgmatch::service {
 
-ModelSnapshot ModelSnapshot::of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials) {
+namespace {
+
+// The recommended observation (either optimizer's Recommendation: its index and predicted cost) as a snapshot.
+template <typename Recommendation>
+ModelSnapshot snapshot(const std::optional<Recommendation>& rec, const std::vector<bo::Observation>& observations,
+                       const bo::SearchSpace& space, const std::vector<int>& trials) {
   ModelSnapshot m;
-  if (const auto rec = optimizer.recommended()) {
+  if (rec) {
     m.has_recommendation = true;
-    m.recommended_trial = told_trials.at(rec->observation);
+    m.recommended_trial = trials.at(rec->observation);
     m.recommended_predicted_cost = rec->predicted;
-    m.recommended_x = optimizer.observations()[rec->observation].x;
-    m.recommended_params = optimizer.space().to_named(m.recommended_x);
+    m.recommended_x = observations[rec->observation].x;
+    m.recommended_params = space.to_named(m.recommended_x);
   }
   return m;
 }
 
+}  // namespace
+
+ModelSnapshot ModelSnapshot::of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials) {
+  return snapshot(optimizer.recommended(), optimizer.observations(), optimizer.space(), told_trials);
+}
+
+ModelSnapshot ModelSnapshot::of(bo::HardwareOptimizer& optimizer, const std::vector<int>& told_hardware_trials) {
+  auto rec = optimizer.recommended();  // first: it fits the model when its observations changed
+  return snapshot(rec, optimizer.hardware_observations(), optimizer.space(), told_hardware_trials);
+}
+
+bo::HardwareOptimizerOptions hardware_model_options(const study::StudyConfig& config) {
+  bo::HardwareOptimizerOptions o;
+  o.strategy = config.hardware.strategy == study::HardwareStrategy::kTransfer ? bo::HardwareStrategy::kTransfer
+                                                                             : bo::HardwareStrategy::kMultiFidelity;
+  o.max_fall_probability = config.hardware.max_fall_probability;
+  // The same units as the study's optimizer (log by default: the fall cliff, docs/optimizer.md).
+  o.cost_transform = config.optimizer.cost_transform;
+  // Always on, whatever the study's fall_model: on hardware a fall is a robot on the floor.
+  o.fall_model = true;
+  o.seed = config.optimizer.seed;
+  return o;
+}
+
 int StudyRun::exploring_in_flight() const {
   return static_cast<int>(
-      std::count_if(in_flight.begin(), in_flight.end(), [](const auto& kv) { return !kv.second.validation; }));
+      std::count_if(in_flight.begin(), in_flight.end(), [](const auto& kv) { return !kv.second.hardware_only(); }));
+}
+
+int StudyRun::hardware_in_flight() const {
+  return static_cast<int>(
+      std::count_if(in_flight.begin(), in_flight.end(), [](const auto& kv) { return kv.second.hardware; }));
+}
+
+int StudyRun::hardware_to_propose() const {
+  return models_hardware() ? std::max(0, config.hardware.budget - hardware_done - hardware_in_flight()) : 0;
 }
 
 bool StudyRun::complete() const {
   if (completed < config.budget) return false;
   const auto& v = config.validation;
-  return !v.enabled || (validation_started && validated >= v.hardware_sets);
+  if (v.enabled) return validation_started && validated >= v.hardware_sets;
+  if (models_hardware()) {
+    return hardware_done >= config.hardware.budget && in_flight.empty() && untold.empty() &&
+           hardware_untold_sim.empty() && hardware_untold.empty() && !model_busy;
+  }
+  return true;
 }
 
 bool StudyRun::count_outcome(const domain::RolloutReport& r) {
@@ -60,6 +103,13 @@ void StudyRun::account_validation(int trial_id, const domain::RolloutReport& r) 
   ++validated;
   validation_trials.push_back(trial_id);
   count_outcome(r);
+}
+
+void StudyRun::account_hardware(int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& r) {
+  ++hardware_done;
+  hardware_trials.push_back(trial_id);
+  count_outcome(r);
+  hardware_untold.emplace_back(trial_id, observation(x, r));
 }
 
 bo::Observation StudyRun::observation(const Eigen::VectorXd& x, const domain::RolloutReport& r) {
@@ -120,10 +170,12 @@ domain::StudyState StudyRun::state_sample(int workers, double wall_now_s, double
   st.study_id = id;
   st.name = name;
   st.status = state;
-  // Both phases count: budget = exploration budget + validation sets, completed = reports of either.
+  // Both sources count: budget = exploration budget + validation sets or hardware rollouts, completed =
+  // reports of either.
   const int sets = config.validation.enabled ? config.validation.hardware_sets : 0;
-  st.budget = config.budget + sets;
-  st.completed = completed + validated;
+  const int hardware_rollouts = models_hardware() ? config.hardware.budget : 0;
+  st.budget = config.budget + sets + hardware_rollouts;
+  st.completed = completed + validated + hardware_done;
   st.in_flight = static_cast<int>(in_flight.size());
   st.failed = failed;
   st.falls = falls;
@@ -140,10 +192,13 @@ domain::StudyState StudyRun::state_sample(int workers, double wall_now_s, double
   const double session = now_s - session_start_s;
   st.rollouts_per_s = session > 0.0 ? (completed - completed_at_session_start) / session : 0.0;
   st.message = message;
-  if (model.has_recommendation) {
+  // With a hardware model the answer is the hardware posterior's best hardware trial (none before the first
+  // hardware result): what the robot should run, not what the simulation liked.
+  const ModelSnapshot& answer = models_hardware() ? hardware_model : model;
+  if (answer.has_recommendation) {
     st.has_recommendation = true;
     st.recommendation =
-        domain::Recommendation{model.recommended_trial, model.recommended_predicted_cost, model.recommended_params};
+        domain::Recommendation{answer.recommended_trial, answer.recommended_predicted_cost, answer.recommended_params};
   }
   return st;
 }

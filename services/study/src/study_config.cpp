@@ -1,5 +1,7 @@
 #include "cpgmatch/study/study_config.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 #include "cpgmatch/errors.hpp"
@@ -16,6 +18,16 @@ StudyConfig parse(const YamlReader& r);
 
 }  // namespace
 
+std::string to_string(HardwareStrategy s) {
+  switch (s) {
+    case HardwareStrategy::kValidate: return "validate";
+    case HardwareStrategy::kTransfer: return "transfer";
+    case HardwareStrategy::kMultiFidelity: return "multi_fidelity";
+    case HardwareStrategy::kNone: break;
+  }
+  return "none";
+}
+
 StudyConfig load_study_config(const std::string& path) { return parse(YamlReader::from_file(path)); }
 
 StudyConfig load_study_config_text(const std::string& text, const std::string& source_name) {
@@ -31,9 +43,52 @@ constexpr std::size_t kMaxStudyNameBytes = 64;
 constexpr int kMaxBudget = 100'000;
 constexpr double kMaxRolloutPartS = 3600.0;  // entrainment or evaluation, seconds
 
+// `hardware: {strategy, budget, ...}` (study_config.hpp, HardwareConfig). Needs budget, initial_points,
+// lockstep, explore_on and validation already parsed.
+void parse_hardware(const YamlReader& r, StudyConfig& s) {
+  const YamlReader h = r.child("hardware");
+  const std::string name = h.require_string("strategy");
+  if (name == "validate") {
+    s.hardware.strategy = HardwareStrategy::kValidate;
+  } else if (name == "transfer") {
+    s.hardware.strategy = HardwareStrategy::kTransfer;
+  } else if (name == "multi_fidelity") {
+    s.hardware.strategy = HardwareStrategy::kMultiFidelity;
+  } else {
+    h.fail("strategy", fmt::format("'{}' is not a hardware strategy (validate | transfer | multi_fidelity)", name));
+  }
+  if (r.has("validation")) {
+    r.fail("hardware", "give either `hardware` or its older spelling `validation`, not both");
+  }
+  if (s.hardware.strategy == HardwareStrategy::kValidate) {
+    // The validation phase under its new name: the same sets, the same checks.
+    h.reject_unknown_keys({"strategy", "budget", "spread"});
+    s.validation.enabled = true;
+    s.validation.hardware_sets = h.get_int_in("budget", s.validation.hardware_sets, 1, 1000);
+    s.validation.spread = h.get_double_in("spread", s.validation.spread, 0.0, 1.0);
+    s.hardware.budget = s.validation.hardware_sets;
+    return;
+  }
+  h.reject_unknown_keys({"strategy", "budget", "max_fall_probability", "start_after"});
+  // A study of more robot rollouts than this is a hardware-only study (`explore_on: hardware`).
+  s.hardware.budget = h.get_int_in("budget", s.hardware.budget, 1, 1000);
+  s.hardware.max_fall_probability = h.get_double_in("max_fall_probability", s.hardware.max_fall_probability, 0.0, 1.0);
+  // Not before the initial design is in: hardware trials then never take trial ids of the initial design,
+  // and the simulation's model is more than random points.
+  s.hardware.start_after =
+      h.get_int_in("start_after", s.optimizer.initial_points, std::max(2, s.optimizer.initial_points), s.budget);
+  if (s.explore_on == WorkerKindWanted::kHardware) {
+    r.fail("hardware", "transfer and multi_fidelity learn from simulated rollouts: explore_on must be simulation");
+  }
+  if (s.lockstep > 0) {
+    // Lockstep numbers a study's proposals by trial id; hardware trials would take ids in between.
+    r.fail("hardware", "lockstep studies cannot use transfer or multi_fidelity (yet): remove lockstep");
+  }
+}
+
 StudyConfig parse(const YamlReader& r) {
   r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
-                         "cost_transform", "fall_model", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation",
+                         "cost_transform", "fall_model", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation", "hardware",
                          "lockstep", "robot",
                          // the study's objective, resolved by StudySpec (study_spec.hpp) and checked there
                          "model", "rollout_settings", "base_parameters"});
@@ -94,7 +149,11 @@ StudyConfig parse(const YamlReader& r) {
     s.validation.hardware_sets = v.get_int_in("hardware_sets", s.validation.hardware_sets, 1, 1000);
     // A relative spread of 1 already reaches zero; beyond it a parameter could change sign.
     s.validation.spread = v.get_double_in("spread", s.validation.spread, 0.0, 1.0);
+    // The older spelling of `hardware: {strategy: validate, budget: N, spread: S}`.
+    s.hardware.strategy = HardwareStrategy::kValidate;
+    s.hardware.budget = s.validation.hardware_sets;
   }
+  if (r.has("hardware")) parse_hardware(r, s);
   s.terrain = r.get_string("terrain", s.terrain);
   try {
     (void)sim::TerrainSpec::parse(s.terrain);

@@ -161,6 +161,10 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
     exec(R"(CREATE TABLE IF NOT EXISTS model_states(
              study_id INTEGER PRIMARY KEY REFERENCES studies(study_id),
              state_json TEXT NOT NULL))");
+    // A study with one model over simulation and hardware (`hardware: {strategy: transfer | multi_fidelity}`)
+    // saves its bo::HardwareOptimizer's state beside the optimizer's; 'null' for every other study and in
+    // stores written before it.
+    add_column_if_missing("model_states", "hardware_state_json", "TEXT NOT NULL DEFAULT 'null'");
     try {
       exec("CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value TEXT NOT NULL)");
       store_id_ = read_or_make_store_id();
@@ -337,7 +341,15 @@ bool StudyStore::complete_trial(const domain::RolloutReport& report, double now_
 }
 
 void StudyStore::save_model_state(int study_id, const nlohmann::json& state) {
-  Statement s(db_, "INSERT OR REPLACE INTO model_states(study_id, state_json) VALUES(?, ?)");
+  // An upsert, not INSERT OR REPLACE: the row's hardware state stays as it was.
+  Statement s(db_, R"(INSERT INTO model_states(study_id, state_json) VALUES(?, ?)
+                      ON CONFLICT(study_id) DO UPDATE SET state_json = excluded.state_json)");
+  s.bind(1, study_id).bind(2, state.dump()).run();
+}
+
+void StudyStore::save_hardware_model_state(int study_id, const nlohmann::json& state) {
+  Statement s(db_, R"(INSERT INTO model_states(study_id, state_json, hardware_state_json) VALUES(?, 'null', ?)
+                      ON CONFLICT(study_id) DO UPDATE SET hardware_state_json = excluded.hardware_state_json)");
   s.bind(1, study_id).bind(2, state.dump()).run();
 }
 
@@ -391,10 +403,12 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     t.faults = s.column_int(13);
     out[k].trials.push_back(std::move(t));
   }
-  Statement m(db_, "SELECT study_id, state_json FROM model_states");
+  Statement m(db_, "SELECT study_id, state_json, hardware_state_json FROM model_states");
   while (m.step()) {
     for (auto& st : out) {
-      if (st.study_id == m.column_int(0)) st.model_state = nlohmann::json::parse(m.column_text(1), nullptr, false);
+      if (st.study_id != m.column_int(0)) continue;
+      st.model_state = nlohmann::json::parse(m.column_text(1), nullptr, false);
+      st.hardware_model_state = nlohmann::json::parse(m.column_text(2), nullptr, false);
     }
   }
   return out;

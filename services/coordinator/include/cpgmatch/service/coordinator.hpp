@@ -17,11 +17,16 @@
 //    running studies, re-issued candidates first.
 //  * nothing malformed gets in: a bad sample is logged with its reason and dropped.
 //  * work goes by worker kind: exploration candidates to the study's `explore_on` kind (simulation by
-//    default), validation sets to hardware workers only. The validation phase (a study with a
+//    default), validation sets and hardware proposals to hardware workers only. The validation phase (a study with a
 //    `validation` key) starts once the exploration budget is reported and the model holds every report:
 //    its N sets are stored at once (phase "validation"), so a restart issues the same sets. Validation
 //    reports are never told to the optimizer: they measure the answer on hardware, they do not steer it.
 //    No hardware worker on the domain: the study waits and says so in its state's message.
+//  * one model over both sources (`hardware: {strategy: transfer | multi_fidelity}`): every simulated result
+//    is also told to the study's bo::HardwareOptimizer, which proposes one hardware rollout per free robot
+//    slot (phase "hardware", stored at once) once start_after simulated results are in, until the hardware
+//    budget is spent; hardware reports go to that model only. The study's answer is its hardware posterior's
+//    best hardware trial; the study is done when both budgets are spent and every result is told.
 //  * a report counts only from the worker its attempt was issued to; with DDS-Security on
 //    (CoordinatorOptions::require_authenticated_workers) also only when that worker id belongs to the
 //    sender's certificate (its CN, or CN/suffix: domain::worker_id_belongs_to), and a participant may only
@@ -214,10 +219,21 @@ class Coordinator {
   static void release_optimizer_if_done(StudyRun& study);
   // A new report: queued for the study's next model job (which tells it and saves the model state), then accounted.
   void count_report(StudyRun& study, int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& report);
+  // A spent trial's report, by its kind: exploration (count_report), validation set, or hardware proposal.
+  void account(StudyRun& study, int trial_id, const InFlight& spent, const domain::RolloutReport& report);
+  // Hardware proposals of a transfer or multi_fidelity study are due (rollouts left, the simulation far enough).
+  static bool hardware_proposals_due(const StudyRun& study);
+  // A hardware model job's result, on the event thread: its state stored, its point stored as a hardware trial.
+  void apply_hardware_result(StudyRun& study, ModelJobResult result);
   // The study's optimizer from its stored observations: restored from the saved model state (one
   // factorisation), or replayed observation by observation when there is none.
   bo::BayesianOptimizer restored_optimizer(const StudyRun& study, const study::StoredStudy* stored,
                                            const std::vector<bo::Observation>& observations) const;
+  // A transfer or multi_fidelity study's hardware model from the optimizer's simulated observations (in the
+  // order told) and its stored hardware reports (in the order counted), with its saved state.
+  void restore_hardware_model(StudyRun& study, const study::StoredStudy* stored,
+                              const std::vector<bo::Observation>& simulated,
+                              const std::vector<const study::StoredTrial*>& hardware);
   void finish_if_complete(StudyRun& study);
   void publish_state(StudyRun& study, double now_s);
   // A finished study, its grace period over: trial records off the topic, model dropped.

@@ -1,6 +1,6 @@
 // Which work goes to which free worker slot, and the issuing of candidates. Every tick the Coordinator hands
 // the dispatcher its running studies in round-robin order; the dispatcher gives each study's re-issues (and
-// stored validation sets) first, then its proposed points, to the free slots of the kind the work needs and
+// stored validation sets and hardware proposals, to hardware slots only) first, then its proposed points, to the free slots of the kind the work needs and
 // that may serve the study (its robot, no refusal backoff), and writes each candidate after the store holds
 // it. A tick writes at most max_issues candidates (each DDS write costs the event thread about a millisecond;
 // CoordinatorOptions::max_issues_per_tick), the rest waits for the next ticks.

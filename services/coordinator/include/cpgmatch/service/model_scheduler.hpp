@@ -9,6 +9,12 @@
 //    order, whatever order reports arrive in: the same study on any number of workers proposes the same
 //    points. A job tells and asks one trial at a time.
 //
+// A study with one model over simulation and hardware (`hardware: {strategy: transfer | multi_fidelity}`) has
+// a second kind of job, HardwareModelJob, for its bo::HardwareOptimizer: it tells that model the simulated
+// results its optimizer was told since (in the same order) and the hardware reports counted since, then asks
+// it for one hardware point when a robot of the study is free. The two kinds share the study's one-job-at-a-
+// time turn; when both are due, the hardware job goes first (the robot is the scarce resource).
+//
 // The scheduler copies what a job needs out of the study before the job runs; the job's result comes back
 // to the event thread through the completion the caller gives (the Coordinator stores the model state and
 // queues the points). No store and no outbox here.
@@ -36,6 +42,10 @@ struct ModelJobResult {
   std::optional<std::pair<ModelSnapshot, nlohmann::json>> fitted;
   std::vector<Eigen::VectorXd> points;
   std::string error;
+  // A HardwareModelJob's: its model's answer and saved state, and the hardware point it asked for.
+  bool hardware = false;
+  std::optional<std::pair<ModelSnapshot, nlohmann::json>> hardware_fitted;
+  std::optional<bo::HardwareProposal> hardware_point;
 };
 
 // The work of one model job, run on a model thread.
@@ -77,6 +87,21 @@ class LockstepModel final : public ModelStrategy {
 // The strategy a study's config asks for.
 const ModelStrategy& strategy_for(const StudyRun& study);
 
+// The jobs of a study's hardware model (StudyRun::hardware_optimizer).
+class HardwareModelJob {
+ public:
+  enum class Kind { kAsk, kTell };
+  // Whether a hardware job is due, given the free hardware slots that may serve the study:
+  //  * kAsk: a robot of the study is free, hardware rollouts remain, at least start_after simulated results
+  //    (two of them successful) are told, and no hardware point waits for a robot;
+  //  * kTell: hardware reports wait to be told (the published answer follows them), or the study has
+  //    nothing left to run and simulated results wait (the answer is final only with all of them).
+  static std::optional<Kind> due(const StudyRun& study, int usable_hardware_slots);
+  // Moves what the job tells out of the study and returns its work (tell both sources, ask with the
+  // hardware points in flight as pending, then the answer and the state to save).
+  static ModelWork prepare(StudyRun& study, Kind kind, const std::function<void(int)>& hook);
+};
+
 struct ModelSchedulerOptions {
   int threads = 0;               // model threads (0: jobs run inline, deterministic to the call)
   int acquisition_threads = 1;   // threads a lone job's acquisition search may use (CoordinatorOptions)
@@ -94,8 +119,9 @@ class ModelScheduler {
   // Starts a model job for each study in `order` that has reports to tell or free slots to ask for: at most
   // max_new_points_per_tick points over all studies, and only for slots no running job or waiting point
   // will fill. `free_simulation` / `free_hardware`: free slots of each kind.
+  // `hardware_slots_for`: the free hardware slots that may serve a study now (its robot, no refusal backoff).
   void start_jobs(std::map<int, StudyRun>& studies, const std::vector<StudyRun*>& order, int free_simulation,
-                  int free_hardware);
+                  int free_hardware, const std::function<int(const StudyRun&)>& hardware_slots_for);
   // Runs other work on the model threads (inline without threads), its completion on the event thread in
   // apply_results(). Jobs with the same key run one at a time; study jobs use the study id as key, so other
   // work takes keys no study has.
@@ -107,6 +133,7 @@ class ModelScheduler {
 
  private:
   void start_job(std::map<int, StudyRun>& studies, StudyRun& study, int ask);
+  void submit(StudyRun& study, ModelWork work);
   ModelSchedulerOptions options_;
   std::function<void(ModelJobResult)> apply_;
   std::function<void(const std::string&)> warn_;

@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "cpgmatch/bo/hardware_optimizer.hpp"
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/domain/candidate.hpp"
 #include "cpgmatch/domain/study_state.hpp"
@@ -37,6 +38,8 @@ struct InFlight {
   // participant that merely reads candidates cannot answer them.
   std::map<int, std::string> issued_to;
   bool validation = false;  // a validation set (hardware only, never told to the optimizer)
+  bool hardware = false;    // a hardware proposal (hardware only, told to the study's hardware model)
+  bool hardware_only() const { return validation || hardware; }
 };
 
 // What the event thread knows of a study's model, from its latest model job.
@@ -48,7 +51,13 @@ struct ModelSnapshot {
   Eigen::VectorXd recommended_x;  // the same point in the search space (the validation sets' centre)
 
   static ModelSnapshot of(const bo::BayesianOptimizer& optimizer, const std::vector<int>& told_trials);
+  // The hardware posterior's best hardware trial (fits the model when its observations changed).
+  static ModelSnapshot of(bo::HardwareOptimizer& optimizer, const std::vector<int>& told_hardware_trials);
 };
+
+// The options of a study's hardware model (`hardware: {strategy: transfer | multi_fidelity}`): its strategy,
+// fall limit, cost transform and seed.
+bo::HardwareOptimizerOptions hardware_model_options(const study::StudyConfig& config);
 
 // A worker's latest refusal of a study's candidates (a latched stop, a spec it cannot run).
 struct Refusal {
@@ -84,6 +93,17 @@ struct StudyRun {
   bool validation_started = false;     // its sets are in the store
   int validated = 0;                   // validation reports counted (not in `completed`)
   std::vector<int> validation_trials;  // counted validation trials, for retiring their records
+  // One model over both sources (config.hardware.models_hardware()): like `optimizer`, touched only by the
+  // study's model jobs once it is open. Every simulated result the optimizer is told goes to it too, in the
+  // same order; hardware reports go to it alone.
+  std::shared_ptr<bo::HardwareOptimizer> hardware_optimizer;
+  ModelSnapshot hardware_model;            // its answer: the hardware posterior's best hardware trial
+  std::vector<std::pair<int, bo::Observation>> hardware_untold_sim;  // told to `optimizer`, not yet to it
+  std::vector<std::pair<int, bo::Observation>> hardware_untold;      // hardware reports counted, not yet told
+  std::vector<int> hardware_told_trials;   // trial id of each of its hardware observations, in the order told
+  int simulation_successes = 0;            // successful simulated results told to `optimizer` (asks need 2)
+  int hardware_done = 0;                   // hardware reports counted (not in `completed`)
+  std::vector<int> hardware_trials;        // counted hardware trials, for retiring their records
   bool waiting_for_hardware = false;   // hardware work waits and no hardware worker is live
   std::string waiting_message;         // why work waits (published, never stored), "" when nothing waits
   double best_normalized_torque = std::nan(""), best_speed_mps = std::nan("");
@@ -96,7 +116,12 @@ struct StudyRun {
   bool is_open() const { return domain::is_open(state); }
   bool explores_on_hardware() const { return config.explore_on == study::WorkerKindWanted::kHardware; }
   int exploring_in_flight() const;
-  // Every exploration report counted and, with a validation phase, every set run.
+  bool models_hardware() const { return config.hardware.models_hardware(); }
+  int hardware_in_flight() const;  // hardware proposals stored and not yet reported
+  // Hardware rollouts of a transfer or multi_fidelity study still to propose.
+  int hardware_to_propose() const;
+  // Every exploration report counted and, with a validation phase, every set run; with a hardware model,
+  // every hardware rollout counted and every result of both sources told to it (the answer is final).
   bool complete() const;
 
   // Failures, falls and the failure streak of one report, either phase; false when it did not run.
@@ -105,6 +130,9 @@ struct StudyRun {
   void account_report(int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& report);
   // A counted validation report: counters only (the optimizer never hears of it).
   void account_validation(int trial_id, const domain::RolloutReport& report);
+  // A counted hardware report of a transfer or multi_fidelity study: counters, and queued for the hardware
+  // model (never the simulation's optimizer, never `best_*`, which stay the simulated best).
+  void account_hardware(int trial_id, const Eigen::VectorXd& x, const domain::RolloutReport& report);
   // The observation the model learns from a report: its cost, a failure, a fall; excluded when spent on faults.
   static bo::Observation observation(const Eigen::VectorXd& x, const domain::RolloutReport& report);
 

@@ -13,6 +13,7 @@
 //   lease_s: 120            # wall seconds a worker may take per rollout before it is re-issued
 //   explore_on: simulation  # worker kind running the exploration (budget): simulation | hardware
 //   validation: {hardware_sets: 10, spread: 0.10}   # optional: the hardware validation phase
+//   hardware: {strategy: multi_fidelity, budget: 15, max_fall_probability: 0.2}   # optional: see HardwareConfig
 //   robot: morti            # optional: only this robot agent runs its hardware rollouts
 #pragma once
 
@@ -35,6 +36,30 @@ struct ValidationConfig {
 
 enum class WorkerKindWanted { kSimulation, kHardware };
 
+// How a study uses the robot (`hardware:` key):
+//  * validate: the paper's protocol, the ValidationConfig phase above (`hardware: {strategy: validate, budget: N,
+//    spread: S}` is `validation: {hardware_sets: N, spread: S}`, which stays as its older spelling);
+//  * transfer / multi_fidelity: one model over both sources (bo::HardwareOptimizer). The exploration (`budget`)
+//    runs on simulation workers as before; every simulated result also goes to the hardware model, and once
+//    `start_after` simulated results are in, each free slot of the study's robot gets a hardware proposal
+//    until `budget` hardware rollouts are spent. The study's answer is the hardware posterior's best.
+enum class HardwareStrategy { kNone, kValidate, kTransfer, kMultiFidelity };
+std::string to_string(HardwareStrategy s);
+
+struct HardwareConfig {
+  HardwareStrategy strategy = HardwareStrategy::kNone;  // kNone: the study file has no `hardware` key
+  int budget = 15;  // hardware rollouts (transfer, multi_fidelity); validate: ValidationConfig::hardware_sets
+  // A hardware proposal whose predicted fall probability exceeds this is not sent while a safer one exists.
+  double max_fall_probability = 0.2;
+  // Simulated results told to the model before the first hardware proposal; 0 in the file means the
+  // study's initial_points (the default): before them the simulation's model is a random design.
+  int start_after = 0;
+  // One model over both sources: hardware proposals and a hardware answer.
+  bool models_hardware() const {
+    return strategy == HardwareStrategy::kTransfer || strategy == HardwareStrategy::kMultiFidelity;
+  }
+};
+
 struct StudyConfig {
   std::string name = "paper-study";
   int budget = 150;
@@ -50,12 +75,17 @@ struct StudyConfig {
   // Empty: any robot agent. Another robot's agent refuses the candidates (it never measures on the wrong body).
   std::string robot;
   ValidationConfig validation;
+  HardwareConfig hardware;
   // Reproducible parallelism: with lockstep N > 0, trial k is proposed from exactly the results of trials
   // 0..k-N-1, told in trial order one at a time, with trials k-N..k-1 pending. At most N rollouts then run
   // at once and the study is a function of its seed and N alone, whatever order the reports arrive in.
   // 0: asynchronous (reports told as they arrive, every free slot filled at once; not reproducible).
   int lockstep = 0;
   bool lockstep_given = false;  // the file says lockstep (study run sets it to its worker count otherwise)
+  // Some of its work only a robot can run (a validation phase, a hardware exploration, hardware proposals).
+  bool needs_hardware() const {
+    return validation.enabled || explore_on == WorkerKindWanted::kHardware || hardware.models_hardware();
+  }
   double effective_lease_s() const { return lease_s > 0.0 ? lease_s : 60.0 + 3.0 * (entrain_s + eval_s); }
 };
 

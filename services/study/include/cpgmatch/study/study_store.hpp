@@ -49,7 +49,8 @@ struct StoredTrial {
   // done: the full report, in the store's schema of a domain::RolloutReport (domain/report_json.hpp); kept
   // as the stored tree so that readers of older stores see what was written. stored_report() types it.
   nlohmann::json report;
-  // "exploration" (told to the optimizer) or "validation" (a hardware set around the answer, never told).
+  // "exploration" (told to the optimizer), "validation" (a hardware set around the answer, never told) or
+  // "hardware" (a hardware proposal of a transfer or multi_fidelity study, told to its hardware model).
   // Stores older than the column read as exploration, which is all they held.
   std::string phase = "exploration";
   int faults = 0;                  // attempts that ended in a plant fault or a divergence (not spent)
@@ -83,6 +84,7 @@ struct StoredStudy {
   double created_at_s = 0.0;
   std::vector<StoredTrial> trials; // by trial_id
   nlohmann::json model_state;      // the optimizer's saved state (null: none saved, e.g. an older store)
+  nlohmann::json hardware_model_state;  // its bo::HardwareOptimizer's (null: none, or no hardware model)
   std::string load_error;          // non-empty: a row of this study could not be read (its trials are incomplete)
   StoredSpec spec;
 };
@@ -117,6 +119,8 @@ class StudyStore {
   // Replaces the study's saved optimizer state (see bo::ModelState): what a restart needs besides the
   // observations to resume exactly, without refitting the model once per stored result.
   void save_model_state(int study_id, const nlohmann::json& state);
+  // Replaces the saved state of the study's hardware model (bo::HardwareModelState), kept beside it.
+  void save_hardware_model_state(int study_id, const nlohmann::json& state);
 
   // A burst of writes in one transaction (the optimizer service: every report and command drained from its
   // queue at once, then the tick's writes). Commits are what a burst of reports cost on the event thread,
