@@ -13,11 +13,14 @@
 #include <set>
 #include <vector>
 
+#include "coordinator_test_support.hpp"
 #include "cpgmatch/domain/worker_identity.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 
 namespace cpgmatch::service {
 namespace {
+
+using test_support::submit_command;
 
 struct RecordingOutbox : Outbox {
   std::vector<domain::Candidate> candidates, retired;
@@ -62,12 +65,8 @@ class CoordinatorTest : public ::testing::Test {
                                                  [this](const std::string& m) { warnings_.push_back(m); });
   }
   int submit(int budget, int initial) {
-    domain::StudyCommand c;
-    c.correlation_id = ++correlation_;
-    c.client_id = "test";
-    c.kind = domain::CommandKind::kSubmit;
-    c.study_yaml = "name: t\nbudget: " + std::to_string(budget) + "\ninitial_points: " + std::to_string(initial) +
-                 "\nrollout: {entrain_s: 1, eval_s: 1}\n" + extra_study_yaml_;
+    domain::StudyCommand c = submit_command("name: t\nbudget: " + std::to_string(budget) + "\ninitial_points: " + std::to_string(initial) +
+                 "\nrollout: {entrain_s: 1, eval_s: 1}\n" + extra_study_yaml_, ++correlation_);
     coordinator_->handle_command(c, now_);
     EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
     return static_cast<int>(out_.replies.back().study_id);
@@ -83,12 +82,8 @@ class CoordinatorTest : public ::testing::Test {
     store_.reset();
     for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(path_ + suffix);
     open();
-    domain::StudyCommand c;
-    c.correlation_id = ++correlation_;
-    c.client_id = "test";
-    c.kind = domain::CommandKind::kSubmit;
-    c.study_yaml = "name: t\nbudget: 24\ninitial_points: 6\nlockstep: " + std::to_string(lockstep) +
-                 "\nrollout: {entrain_s: 1, eval_s: 1}\n";
+    domain::StudyCommand c = submit_command("name: t\nbudget: 24\ninitial_points: 6\nlockstep: " + std::to_string(lockstep) +
+                 "\nrollout: {entrain_s: 1, eval_s: 1}\n", ++correlation_);
     coordinator_->handle_command(c, now_);
     EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
     worker("a", 1);
@@ -251,11 +246,7 @@ TEST_F(CoordinatorTest, APausedLockstepStudyStartsNoModelJobsAndGoesOnWhenResume
   int jobs = 0;
   model_job_hook_ = [&jobs](int) { ++jobs; };
   open();  // with the hook
-  domain::StudyCommand c;
-  c.correlation_id = ++correlation_;
-  c.client_id = "test";
-  c.kind = domain::CommandKind::kSubmit;
-  c.study_yaml = "name: t\nbudget: 10\ninitial_points: 4\nlockstep: 2\nrollout: {entrain_s: 1, eval_s: 1}\n";
+  domain::StudyCommand c = submit_command("name: t\nbudget: 10\ninitial_points: 4\nlockstep: 2\nrollout: {entrain_s: 1, eval_s: 1}\n", ++correlation_);
   coordinator_->handle_command(c, now_);
   const auto id = out_.replies.back().study_id;
   worker("a", 2);
@@ -680,11 +671,7 @@ TEST_F(CoordinatorTest, ASubmitResolvedOnAModelThreadIsAnsweredOnceWhenResolvedA
   resolve_off_thread_ = true;
   open();
   worker("a", 2);
-  domain::StudyCommand c;
-  c.correlation_id = ++correlation_;
-  c.client_id = "test";
-  c.kind = domain::CommandKind::kSubmit;
-  c.study_yaml = "name: t\nbudget: 6\ninitial_points: 3\nrollout: {entrain_s: 1, eval_s: 1}\n";
+  domain::StudyCommand c = submit_command("name: t\nbudget: 6\ninitial_points: 3\nrollout: {entrain_s: 1, eval_s: 1}\n", ++correlation_);
   coordinator_->handle_command(c, now_);
   coordinator_->handle_command(c, now_);  // re-sent while its spec resolves
   // The event thread went on: nothing is stored or answered until the resolved spec is applied on it.
@@ -1257,11 +1244,7 @@ TEST_F(CoordinatorTest, CandidatesCarryTheStudysSpecAndItIsPublishedBeforeThem) 
   CoordinatorOptions options;
   options.wall_clock_s = [] { return 1.7e9; };
   Coordinator c(*store_, out, options, [](const std::string&) {}, [](const std::string&) {});
-  domain::StudyCommand cmd;
-  cmd.correlation_id = 1;
-  cmd.client_id = "test";
-  cmd.kind = domain::CommandKind::kSubmit;
-  cmd.study_yaml = "name: s\nbudget: 2\ninitial_points: 2\nmodel: {knee_spring: {stiffness_nm_per_rad: 20}}\n";
+  domain::StudyCommand cmd = submit_command("name: s\nbudget: 2\ninitial_points: 2\nmodel: {knee_spring: {stiffness_nm_per_rad: 20}}\n", 1);
   c.handle_command(cmd, now_);
   ASSERT_TRUE(out.replies.back().ok) << out.replies.back().message;
   ASSERT_EQ(out.specs.size(), 1);
@@ -1291,11 +1274,7 @@ TEST_F(CoordinatorTest, AnOversizedStudyFileIsRefusedBeforeAnythingParsesIt) {
   std::string huge = "name: huge\n";
   huge.reserve(12'000'000);
   for (int i = 0; huge.size() < 12'000'000; ++i) huge += "k" + std::to_string(i) + ": 1\n";
-  domain::StudyCommand c;
-  c.correlation_id = 1;
-  c.client_id = "test";
-  c.kind = domain::CommandKind::kSubmit;
-  c.study_yaml = huge;
+  domain::StudyCommand c = submit_command(huge, 1);
   c.source_name = "huge.yaml";
   coordinator_->handle_command(c, now_);
   ASSERT_EQ(out_.replies.size(), 1);
