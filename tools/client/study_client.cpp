@@ -155,6 +155,21 @@ bool StudyClient::wait_for_optimizer(double timeout_s, double settle_s) {
   return true;
 }
 
+bool StudyClient::wait_for_workers(double timeout_s) {
+  const auto& matched = impl_->worker_reader->matched();
+  if (!matched.wait_for(1, std::chrono::milliseconds(static_cast<long>(timeout_s * 1000)))) return false;
+  // Workers announce every 0.5 s (WorkerLinkConfig::heartbeat_s): two periods hear every matched one.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(1500);
+  while (std::chrono::steady_clock::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(impl_->mutex);
+      if (static_cast<int>(impl_->live_workers.size()) >= matched.count()) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
 bool StudyClient::wait_for_study(int study_id, double timeout_s) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (std::chrono::steady_clock::now() < deadline) {

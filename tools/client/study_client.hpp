@@ -33,6 +33,10 @@ class StudyClient {
 
   // True once an optimizer's state writer is matched; then waits `settle_s` for its history to arrive.
   bool wait_for_optimizer(double timeout_s, double settle_s = 1.0);
+  // Waits until a worker's announcement writer is matched (up to `timeout_s`), then until every matched one has
+  // been heard (up to two heartbeat periods), so that `workers` lists every worker that heartbeats, not only
+  // those whose announcement happened to arrive in time. False when no worker was found.
+  bool wait_for_workers(double timeout_s);
   // True once the state of `study_id` has arrived (transient-local history can lag the match).
   bool wait_for_study(int study_id, double timeout_s);
 

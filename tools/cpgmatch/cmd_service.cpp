@@ -261,7 +261,9 @@ void add_service_commands(CLI::App& app) {
     add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
-      c.wait_for_optimizer(o->service.timeout_s, 1.0);  // workers announce every 0.5 s
+      // Discovery takes a moment: wait for the workers themselves (not for an optimizer, which a worker list
+      // does not need), or `workers` listed none of a worker that heartbeats in 3 of 26 tries.
+      c.wait_for_workers(std::min(o->service.timeout_s, 5.0));
       const auto workers = c.workers();
       if (o->json) {
         json all = json::array();
