@@ -54,8 +54,18 @@ domain::AttemptId attempt_id(std::uint64_t store_id, std::uint32_t study_id, std
 }
 
 std::uint32_t u32(int v) { return v < 0 ? 0u : static_cast<std::uint32_t>(v); }
+// A count from the wire as the domain's int: a value past INT_MAX (no real count) is held at INT_MAX.
+int clamped(std::uint32_t v) { return static_cast<int>(std::min<std::uint32_t>(v, std::numeric_limits<int>::max())); }
 
 }  // namespace
+
+std::optional<domain::AttemptId> attempt_of(const msg::Candidate& c) {
+  try {
+    return attempt_id(c.store_id(), c.study_id(), c.trial_id(), c.attempt());
+  } catch (const WireError&) {
+    return std::nullopt;
+  }
+}
 
 std::vector<msg::ParameterValue> to_wire(const std::map<std::string, double>& named) {
   std::vector<msg::ParameterValue> out;
@@ -206,7 +216,7 @@ domain::RolloutReport from_wire(const msg::RolloutReport& w) {
   r.loop.jitter_p50_us = w.loop_jitter_p50_us();
   r.loop.jitter_p99_us = w.loop_jitter_p99_us();
   r.loop.jitter_max_us = w.loop_jitter_max_us();
-  r.loop.overruns = static_cast<int>(std::min<std::uint32_t>(w.loop_overruns(), std::numeric_limits<int>::max()));
+  r.loop.overruns = clamped(w.loop_overruns());
   EnergyMeasures& e = s.energy;
   e.positive_work_j = w.positive_work_j();
   e.joule_loss_j = w.joule_loss_j();
@@ -288,13 +298,13 @@ domain::WorkerAnnouncement from_wire(const msg::WorkerAnnouncement& w) {
   a.host = text(w.host());
   a.pid = w.pid();
   // Slot counts beyond int are no count a worker has (the coordinator refuses more than 4096 anyway).
-  a.slots = static_cast<int>(std::min<std::uint32_t>(w.slots(), std::numeric_limits<int>::max()));
-  a.busy = static_cast<int>(std::min<std::uint32_t>(w.busy(), std::numeric_limits<int>::max()));
+  a.slots = clamped(w.slots());
+  a.busy = clamped(w.busy());
   a.completed = w.completed();
   a.accepting = w.accepting();
   a.heartbeat_period_s = w.heartbeat_period_s();
   a.status = text(w.status());
-  a.objective_version = static_cast<int>(std::min<std::uint32_t>(w.objective_version(), std::numeric_limits<int>::max()));
+  a.objective_version = clamped(w.objective_version());
   return a;
 }
 
@@ -340,7 +350,7 @@ domain::CommandReply from_wire(const msg::CommandReply& w) {
   r.correlation_id = w.correlation_id();
   r.client_id = text(w.client_id());
   r.ok = w.ok();
-  r.study_id = static_cast<int>(std::min<std::uint32_t>(w.study_id(), std::numeric_limits<int>::max()));
+  r.study_id = clamped(w.study_id());
   r.message = text(w.message());
   return r;
 }
@@ -377,20 +387,19 @@ msg::StudyState to_wire(const domain::StudyState& s) {
 }
 
 domain::StudyState from_wire(const msg::StudyState& w) {
-  auto count = [](std::uint32_t v) { return static_cast<int>(std::min<std::uint32_t>(v, std::numeric_limits<int>::max())); };
   domain::StudyState s;
-  s.study_id = count(w.study_id());
+  s.study_id = clamped(w.study_id());
   s.name = text(w.name());
   s.status = checked_enum<domain::StudyStatus>(static_cast<int>(w.state()), msg::STUDY_STOPPED, "state");
-  s.budget = count(w.budget());
-  s.completed = count(w.completed());
-  s.in_flight = count(w.in_flight());
-  s.failed = count(w.failed());
-  s.falls = count(w.falls());
-  s.reissued = count(w.reissued());
-  s.workers = count(w.workers());
+  s.budget = clamped(w.budget());
+  s.completed = clamped(w.completed());
+  s.in_flight = clamped(w.in_flight());
+  s.failed = clamped(w.failed());
+  s.falls = clamped(w.falls());
+  s.reissued = clamped(w.reissued());
+  s.workers = clamped(w.workers());
   s.best_cost = w.best_cost();
-  s.best_trial = count(w.best_trial());
+  s.best_trial = clamped(w.best_trial());
   s.best_params = from_wire(w.best_params());
   s.best_normalized_torque = w.best_normalized_torque();
   s.best_speed_mps = w.best_speed_mps();
@@ -399,7 +408,7 @@ domain::StudyState from_wire(const msg::StudyState& w) {
   s.message = text(w.message());
   s.has_recommendation = w.has_recommendation();
   if (s.has_recommendation) {
-    s.recommendation.trial = count(w.recommended_trial());
+    s.recommendation.trial = clamped(w.recommended_trial());
     s.recommendation.predicted_cost = w.recommended_predicted_cost();
     s.recommendation.params = from_wire(w.recommended_params());
   }
@@ -418,8 +427,8 @@ msg::TrialRecord to_wire(const domain::TrialRecord& t) {
 
 domain::TrialRecord from_wire(const msg::TrialRecord& w) {
   domain::TrialRecord t;
-  t.study_id = static_cast<int>(std::min<std::uint32_t>(w.study_id(), std::numeric_limits<int>::max()));
-  t.trial_id = static_cast<int>(std::min<std::uint32_t>(w.trial_id(), std::numeric_limits<int>::max()));
+  t.study_id = clamped(w.study_id());
+  t.trial_id = clamped(w.trial_id());
   t.initial = w.initial();
   t.parameters = from_wire(w.parameters());
   t.report = from_wire(w.report());
@@ -452,7 +461,7 @@ msg::StudySpecSample to_wire(const domain::SpecPublication& s) {
 domain::SpecPublication from_wire(const msg::StudySpecSample& w) {
   domain::SpecPublication s;
   s.key = w.spec_key();
-  s.objective_version = static_cast<int>(std::min<std::uint32_t>(w.objective_version(), std::numeric_limits<int>::max()));
+  s.objective_version = clamped(w.objective_version());
   s.sha256 = text(w.sha256());
   s.json = text(w.spec_json());
   return s;

@@ -88,19 +88,19 @@ bool WorkerLink::publish(const domain::RolloutReport& report) {
 
 void WorkerLink::acknowledged(const msg::Candidate& key) {
   // Ids past INT_MAX were never issued to (or reported by) this worker: nothing kept under them.
-  if (key.study_id() > 0x7fffffffu || key.trial_id() > 0x7fffffffu) return;
-  const domain::AttemptId id{key.store_id(), static_cast<int>(key.study_id()), static_cast<int>(key.trial_id()), 0};
+  const std::optional<domain::AttemptId> id = dds::attempt_of(key);
+  if (!id) return;
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto report = kept_.acknowledge(id)) reports_.unregister(report_key(*report));
+  if (const auto report = kept_.acknowledge(*id)) reports_.unregister(report_key(*report));
 }
 
 void WorkerLink::answer_malformed(const msg::Candidate& c, const std::string& why) {
   spdlog::warn("worker {}: bad candidate for study {} trial {}: {}", config_.worker_id, c.study_id(), c.trial_id(), why);
   // Answered only when its ids are ones the domain can hold; otherwise no optimizer issued it.
-  if (c.study_id() > 0x7fffffffu || c.trial_id() > 0x7fffffffu || c.attempt() > 0x7fffffffu) return;
+  const std::optional<domain::AttemptId> id = dds::attempt_of(c);
+  if (!id) return;
   domain::RolloutReport r;
-  r.id = domain::AttemptId{c.store_id(), static_cast<int>(c.study_id()), static_cast<int>(c.trial_id()),
-                           static_cast<int>(c.attempt())};
+  r.id = *id;
   r.worker_id = config_.worker_id;
   r.worker_kind = config_.kind;
   r.outcome = domain::Outcome::kError;

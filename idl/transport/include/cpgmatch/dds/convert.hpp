@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -33,6 +34,10 @@ class WireError : public std::runtime_error {
 // The rules of worker identity are the domain's; the transport keys the workers topic with them.
 using domain::worker_id_belongs_to;
 using domain::worker_key;
+
+// The attempt a candidate names, or nothing when its ids are past what the domain holds (no optimizer issued
+// it): for answering or acknowledging a candidate that from_wire refuses, or without converting it whole.
+std::optional<domain::AttemptId> attempt_of(const msg::Candidate& candidate);
 
 std::vector<msg::ParameterValue> to_wire(const std::map<std::string, double>& named);
 std::map<std::string, double> from_wire(const std::vector<msg::ParameterValue>& values);  // throws on a repeated name
