@@ -22,6 +22,9 @@ PACKAGES=(
   # `cpgmatch export --format optuna-journal` is tested by loading the journal in Optuna (3.1 in Debian 12)
   # and drawing its plots (plotly)
   python3-optuna python3-plotly
+  # the live dashboard (cpgmatch dashboard) and report.html work offline: an HTTP server library and
+  # Chart.js from Debian, never a CDN; headless Chromium loads both in the browser tests
+  libcpp-httplib-dev libjs-chart.js chromium
   # installation and packaging: man pages from --help, the .deb's dependencies (dpkg-shlibdeps),
   # network namespaces for the cluster test
   help2man dpkg-dev iproute2
