@@ -25,9 +25,9 @@ PACKAGES=(
   # the live dashboard (cpgmatch dashboard) and report.html work offline: an HTTP server library and
   # Chart.js from Debian, never a CDN; headless Chromium loads both in the browser tests
   libcpp-httplib-dev libjs-chart.js chromium
-  # installation and packaging: man pages from --help, the .deb's dependencies (dpkg-shlibdeps),
-  # network namespaces for the cluster test
-  help2man dpkg-dev iproute2
+  # installation and packaging: groff renders the man pages in the install test, dpkg-shlibdeps finds the
+  # .deb's dependencies, network namespaces for the cluster test
+  groff-base dpkg-dev iproute2
 )
 
 missing=()

@@ -34,6 +34,7 @@
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/man_pages.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/worker/candidate_queue.hpp"
 #include "cpgmatch/worker/spec_book.hpp"
@@ -310,6 +311,7 @@ int main(int argc, char** argv) {
   runtime::DdsFlags dds_flags;
   runtime::add_dds_flags(app, dds_flags, "worker");
   runtime::add_version_flag(app, "cpgmatch-robot-agent");
+  runtime::add_man_page_flag(app, "cpgmatch-robot-agent");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

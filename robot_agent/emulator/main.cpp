@@ -27,6 +27,7 @@
 #include "cpgmatch/robot/robot_config.hpp"
 #include "cpgmatch/robot/robot_device.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/man_pages.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/sim/ode_plant.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
@@ -241,6 +242,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 10000.0))
       ->capture_default_str();
   runtime::add_version_flag(app, "cpgmatch-robot-emulator");
+  runtime::add_man_page_flag(app, "cpgmatch-robot-emulator");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

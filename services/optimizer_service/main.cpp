@@ -28,6 +28,7 @@
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/man_pages.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/service/coordinator.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
@@ -369,6 +370,7 @@ int main(int argc, char** argv) {
   runtime::DdsFlags dds_flags;
   runtime::add_dds_flags(app, dds_flags, "optimizer");
   runtime::add_version_flag(app, "cpgmatch-optimizer");
+  runtime::add_man_page_flag(app, "cpgmatch-optimizer");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

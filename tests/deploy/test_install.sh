@@ -27,15 +27,27 @@ done
 # Units name the executables of the prefix they were installed into.
 grep -q "^ExecStart=$PREFIX/bin/cpgmatch-optimizer " "$PREFIX/lib/systemd/system/cpgmatch-optimizer.service" ||
   fail "optimizer unit does not start $PREFIX/bin/cpgmatch-optimizer"
-if command -v help2man >/dev/null; then
-  for exe in "${EXES[@]}"; do
-    [[ -s $PREFIX/share/man/man1/$exe.1.gz ]] || fail "no man page for $exe"
-  done
-  for exe in cpgmatch-sim-worker cpgmatch-robot-agent; do
-    zcat "$PREFIX/share/man/man1/$exe.1.gz" | grep -qF 'dds\-profile' || fail "the man page of $exe lacks its DDS flags"
-  done
-  zcat "$PREFIX/share/man/man1/cpgmatch-robot-emulator.1.gz" | grep -qF 'lockstep' || fail "the emulator's man page lacks its flags"
-fi
+# Man pages: one per command and subcommand, and the study file's keys in section 5, all written from the
+# programs' own definitions; they render (groff) with "±" as itself, not "??".
+for exe in "${EXES[@]}"; do
+  [[ -s $PREFIX/share/man/man1/$exe.1.gz ]] || fail "no man page for $exe"
+done
+for page in cpgmatch-study-run cpgmatch-study-submit cpgmatch-export cpgmatch-reproduce cpgmatch-calibrate; do
+  [[ -s $PREFIX/share/man/man1/$page.1.gz ]] || fail "no man page for the subcommand: $page.1.gz"
+done
+[[ -s $PREFIX/share/man/man5/cpgmatch-study.5.gz ]] || fail "no cpgmatch-study(5)"
+for exe in cpgmatch-sim-worker cpgmatch-robot-agent; do
+  zcat "$PREFIX/share/man/man1/$exe.1.gz" | grep -qF 'dds\-profile' || fail "the man page of $exe lacks its DDS flags"
+done
+zcat "$PREFIX/share/man/man1/cpgmatch-robot-emulator.1.gz" | grep -qF 'lockstep' || fail "the emulator's man page lacks its flags"
+zcat "$PREFIX/share/man/man1/cpgmatch-study-run.1.gz" | grep -qF 'config' || fail "cpgmatch-study-run(1) lacks --config"
+rendered=$(zcat "$PREFIX/share/man/man1/cpgmatch.1.gz" | LC_ALL=C.UTF-8 groff -man -Tutf8 -P-cbou 2>&1) || fail "groff: $rendered"
+[[ $rendered == *"±"* ]] || fail "cpgmatch(1) does not render ±"
+[[ $rendered != *"??"* ]] || fail "cpgmatch(1) renders '??'"
+study5=$(zcat "$PREFIX/share/man/man5/cpgmatch-study.5.gz" | LC_ALL=C.UTF-8 groff -man -Tutf8 -P-cbou 2>&1) || fail "groff: $study5"
+for key in budget initial_design hardware.strategy rollout_settings base_parameters; do
+  [[ $study5 == *"$key"* ]] || fail "cpgmatch-study(5) lacks the key $key"
+done
 
 # From an unrelated folder, with no hint at the source tree.
 mkdir -p "$WORK/elsewhere" && cd "$WORK/elsewhere"

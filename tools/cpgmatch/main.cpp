@@ -5,6 +5,9 @@
 
 #include "commands.hpp"
 #include "did_you_mean.hpp"
+#include "study_file_man_page.hpp"
+#include "cpgmatch/runtime/man_pages.hpp"
+#include "cpgmatch/runtime/version.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 
@@ -12,6 +15,10 @@ int main(int argc, char** argv) {
   CLI::App app{"cpgmatch: learn to match a CPG to a legged robot's natural dynamics"};
   app.require_subcommand(1);
   cpgmatch::runtime::add_version_flag(app, "cpgmatch");
+  cpgmatch::runtime::add_man_page_flag(
+      app, "cpgmatch",
+      [] { return std::vector{cpgmatch::cli::study_file_man_page(cpgmatch::runtime::version_text("cpgmatch"))}; },
+      {"cpgmatch-study(5)"});
   cpgmatch::cli::add_rollout_command(app);
   cpgmatch::cli::add_bench_optimizer_command(app);
   cpgmatch::cli::add_optimize_command(app);

@@ -24,6 +24,7 @@
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
+#include "cpgmatch/runtime/man_pages.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/worker/candidate_queue.hpp"
 #include "cpgmatch/worker/worker_link.hpp"
@@ -146,6 +147,7 @@ int main(int argc, char** argv) {
   runtime::DdsFlags dds_flags;
   runtime::add_dds_flags(app, dds_flags, "worker");
   runtime::add_version_flag(app, "cpgmatch-sim-worker");
+  runtime::add_man_page_flag(app, "cpgmatch-sim-worker");
   app.add_flag("--run-one", run_one, "internal: one rollout, request as JSON on stdin")->group("");
   try {
     app.parse(argc, argv);

@@ -1,4 +1,5 @@
 #include "cpgmatch/study/study_config.hpp"
+#include "cpgmatch/study/study_file_keys.hpp"
 
 #include <algorithm>
 
@@ -87,11 +88,10 @@ void parse_hardware(const YamlReader& r, StudyConfig& s) {
 }
 
 StudyConfig parse(const YamlReader& r) {
-  r.reject_unknown_keys({"name", "budget", "initial_points", "initial_design", "acquisition", "liar", "seed",
-                         "cost_transform", "fall_model", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation", "hardware",
-                         "lockstep", "robot",
-                         // the study's objective, resolved by StudySpec (study_spec.hpp) and checked there
-                         "model", "rollout_settings", "base_parameters"});
+  // The keys the manual lists (study_file_keys.cpp); `model`, `rollout_settings` and `base_parameters` are the
+  // study's objective, resolved by StudySpec (study_spec.hpp) and checked there.
+  const auto keys = top_level_study_file_keys();
+  r.reject_unknown_keys(std::set<std::string>(keys.begin(), keys.end()));
   StudyConfig s;
   // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");

@@ -1,0 +1,18 @@
+# Writes one executable's man pages (its hidden --write-man-pages flag) into OUT_DIR, compresses each with
+# gzip -9n (no name or timestamp inside, so a rebuild gives the same bytes) and touches STAMP.
+file(REMOVE_RECURSE ${OUT_DIR})
+execute_process(COMMAND ${EXE} --write-man-pages ${OUT_DIR} RESULT_VARIABLE result OUTPUT_QUIET)
+if(NOT result EQUAL 0)
+  message(FATAL_ERROR "${EXE} --write-man-pages failed (${result})")
+endif()
+file(GLOB pages ${OUT_DIR}/*.[15])
+if(NOT pages)
+  message(FATAL_ERROR "${EXE} wrote no man pages into ${OUT_DIR}")
+endif()
+foreach(page ${pages})
+  execute_process(COMMAND gzip -9nf ${page} RESULT_VARIABLE result)
+  if(NOT result EQUAL 0)
+    message(FATAL_ERROR "gzip ${page} failed")
+  endif()
+endforeach()
+file(TOUCH ${STAMP})
