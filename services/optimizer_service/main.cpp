@@ -51,6 +51,7 @@ double monotonic_now_s() {
 
 struct WorkerGone {
   std::uint64_t key;
+  bool disposed;                           // the worker disposed its announcement: it left cleanly
   std::optional<std::string> disposed_by;  // with DDS-Security: the disposing participant's CN
 };
 struct ModelResult {};  // a model job finished: wake up and apply it
@@ -108,7 +109,7 @@ void dispatch(Coordinator& coordinator, Event& event) {
           } else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) {
             coordinator.handle_worker(dds::from_wire(e.sample), now, e.sender);
           } else if constexpr (std::is_same_v<T, WorkerGone>) {
-            coordinator.handle_worker_gone(e.key, now, e.disposed_by);
+            coordinator.handle_worker_gone(e.key, now, e.disposed ? WorkerExit::kLeft : WorkerExit::kLost, e.disposed_by);
           }
         },
         event.sample);
@@ -239,7 +240,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
         // (an unknown sender is ""). Lost writers and liveliness are not anyone's claim: no identity.
         std::optional<std::string> by;
         if (secure && gone.disposed) by = sender(gone.origin).value_or("");
-        queue.push(Event{WorkerGone{key.worker_key(), by}});
+        queue.push(Event{WorkerGone{key.worker_key(), gone.disposed, by}});
       });
   spdlog::info("optimizer on domain {} with store {} ({} studies, {} model threads)", domain, store_path,
                coordinator.studies(), model_threads);

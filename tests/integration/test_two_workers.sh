@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Two simulation workers (real ODE rollouts) finish a small study; both did work; SIGTERM exits 0.
+# Two simulation workers (real ODE rollouts) finish a small study; both did work; SIGTERM exits 0 and the
+# optimizer logs each as leaving cleanly, not as silent or lost.
 source "$(dirname "$0")/lib.sh"
 write_study "$WORK/s.yaml" two-workers 12 6
 start_optimizer "$WORK/s.db"
@@ -16,4 +17,9 @@ out=$(cli study submit --config "$WORK/s.yaml" --wait --json --quiet --timeout 2
 kill -TERM "$A" "$B"
 wait "$A" || fail "worker a exited $? after SIGTERM"
 wait "$B" || fail "worker b exited $? after SIGTERM"
+for id in a b; do
+  wait_until 5 grep -q "worker $id left: it shut down cleanly" "$WORK/optimizer.log" ||
+    fail "the optimizer did not log worker $id's clean shutdown as a leave: $(grep "worker $id " "$WORK/optimizer.log" | tail -2)"
+done
+! grep -E "worker (a|b) (silent|lost)" "$WORK/optimizer.log" || fail "a clean shutdown was logged as silent or lost"
 echo "PASS two workers: $out"

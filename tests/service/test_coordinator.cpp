@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <algorithm>
 #include <atomic>
 #include <future>
 #include <optional>
@@ -61,7 +62,7 @@ class CoordinatorTest : public ::testing::Test {
     options.require_authenticated_workers = require_identity_;
     options.resolve_specs_off_thread = resolve_off_thread_;
     coordinator_ = std::make_unique<Coordinator>(*store_, defer_ ? static_cast<Outbox&>(*deferred_) : out_, options,
-                                                 [](const std::string&) {},
+                                                 [this](const std::string& m) { infos_.push_back(m); },
                                                  [this](const std::string& m) { warnings_.push_back(m); });
   }
   int submit(int budget, int initial) {
@@ -180,6 +181,7 @@ class CoordinatorTest : public ::testing::Test {
   bool defer_ = false;
   std::unique_ptr<Coordinator> coordinator_;
   std::vector<std::string> warnings_;
+  std::vector<std::string> infos_;
   std::size_t answered_ = 0;
   std::uint64_t correlation_ = 0;
   double now_ = 1000.0;       // monotonic time handed to the coordinator
@@ -373,6 +375,29 @@ TEST_F(CoordinatorTest, WithSecurityAReportCountsOnlyWhenTheSendersCertificateOw
   EXPECT_EQ(out_.states.back().best_cost, 2.0);
 }
 
+TEST_F(CoordinatorTest, AWorkerThatShutsDownCleanlyIsLoggedAsLeavingAndALostOneAsLost) {
+  open();
+  submit(4, 4);
+  worker("a", 1);
+  worker("b", 1);
+  coordinator_->tick(now_);
+  ASSERT_EQ(sent_to("a").size(), 1);
+  ASSERT_EQ(sent_to("b").size(), 1);
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, WorkerExit::kLeft);
+  coordinator_->handle_worker_gone(domain::worker_key("b"), now_, WorkerExit::kLost);
+  EXPECT_EQ(coordinator_->live_workers(), 0);
+  const auto logged = [&](const std::string& text) {
+    return std::any_of(infos_.begin(), infos_.end(), [&](const std::string& m) { return m.find(text) != std::string::npos; });
+  };
+  EXPECT_TRUE(logged("worker a left: it shut down cleanly with 1 candidates assigned"));
+  EXPECT_TRUE(logged("worker b lost: its writers vanished"));
+  EXPECT_FALSE(logged("silent"));
+  // Either way its candidate goes to the next worker.
+  worker("c", 2);
+  coordinator_->tick(now_ += 0.1);
+  EXPECT_EQ(sent_to("c").size(), 2);
+}
+
 TEST_F(CoordinatorTest, WithSecurityOnlyTheWorkersOwnIdentityMayDisposeItsAnnouncement) {
   require_identity_ = true;
   open();
@@ -380,16 +405,16 @@ TEST_F(CoordinatorTest, WithSecurityOnlyTheWorkersOwnIdentityMayDisposeItsAnnoun
   worker("a", 1, "a");
   coordinator_->tick(now_);
   ASSERT_EQ(sent_to("a").size(), 1);
-  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, std::string("mallory"));
-  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, std::string(""));
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, WorkerExit::kLeft, std::string("mallory"));
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, WorkerExit::kLeft, std::string(""));
   EXPECT_EQ(coordinator_->live_workers(), 1);
   EXPECT_EQ(coordinator_->rejected_samples(), 2u);
   coordinator_->tick(now_ += 0.1);
   EXPECT_EQ(out_.candidates.size(), 1);  // nothing re-issued
-  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, std::string("a"));  // its own dispose
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, WorkerExit::kLeft, std::string("a"));  // its own dispose
   EXPECT_EQ(coordinator_->live_workers(), 0);
   worker("b", 1, "b");
-  coordinator_->handle_worker_gone(domain::worker_key("b"), now_, std::nullopt);  // no writer left: no claim
+  coordinator_->handle_worker_gone(domain::worker_key("b"), now_, WorkerExit::kLost, std::nullopt);  // no writer left: no claim
   EXPECT_EQ(coordinator_->live_workers(), 0);
 }
 
@@ -418,7 +443,7 @@ TEST_F(CoordinatorTest, AWorkerWhoseLeaseExpiredGetsOneCandidateAtATimeUntilItRe
   ASSERT_EQ(sent_to("greedy").size(), 9);
   EXPECT_EQ(out_.candidates.back().id.attempt, 1);
   // Leaving and rejoining the domain does not clear it.
-  coordinator_->handle_worker_gone(domain::worker_key("greedy"), now_);
+  coordinator_->handle_worker_gone(domain::worker_key("greedy"), now_, WorkerExit::kLeft);
   worker("greedy", 8);
   coordinator_->tick(now_ += 0.1);
   EXPECT_EQ(sent_to("greedy").size(), 10);  // the one it held went back and came again: still one at a time
@@ -488,7 +513,7 @@ TEST_F(CoordinatorTest, ALostWorkersCandidatesGoToAnotherWorker) {
   coordinator_->tick(now_);
   ASSERT_EQ(out_.candidates.size(), 2);
   worker("b", 2);
-  coordinator_->handle_worker_gone(domain::worker_key("a"), now_);
+  coordinator_->handle_worker_gone(domain::worker_key("a"), now_, WorkerExit::kLost);
   coordinator_->tick(now_ += 0.1);
   // The two re-issued candidates (attempt 1) go first, then new ones fill b's remaining slots... b has 2.
   ASSERT_EQ(out_.candidates.size(), 4);

@@ -251,7 +251,7 @@ void Coordinator::handle_worker(const domain::WorkerAnnouncement& w, double now_
   }
 }
 
-void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s,
+void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s, WorkerExit exit,
                                      const std::optional<std::string>& disposed_by) {
   const PoolWorker* w = pool_.by_key(worker_key);
   if (w == nullptr) return;
@@ -259,7 +259,10 @@ void Coordinator::handle_worker_gone(std::uint64_t worker_key, double now_s,
   if (disposed_by) {
     if (auto why = identity_refusal(id, disposed_by)) return reject("dispose of worker " + id, *why);
   }
-  drop_worker(id, "left the domain", now_s);
+  drop_worker(id,
+              exit == WorkerExit::kLeft ? "left: it shut down cleanly"
+                                        : "lost: its writers vanished without a goodbye (crashed, killed or cut off)",
+              now_s);
 }
 
 void Coordinator::unassign(StudyRun& study, int trial_id, const std::string& why) {

@@ -130,6 +130,12 @@ struct CoordinatorOptions {
 
 using LogFn = std::function<void(const std::string&)>;
 
+// How a worker's announcement ended (Coordinator::handle_worker_gone).
+enum class WorkerExit {
+  kLeft,  // it disposed its announcement on the way out: a clean shutdown
+  kLost,  // no writer of it is alive any more, and it said nothing
+};
+
 // A submitted study's spec, resolved (possibly on a model thread), or why it could not be.
 struct ResolvedSubmission {
   std::shared_ptr<const study::StudySpec> spec;
@@ -152,10 +158,12 @@ class Coordinator {
                      const std::optional<std::string>& sender_identity = std::nullopt);
   void handle_worker(const domain::WorkerAnnouncement& announcement, double now_s,
                      const std::optional<std::string>& sender_identity = std::nullopt);
-  // `disposed_by`: for a dispose with DDS-Security, the disposing participant's CN ("" unknown); it must own
-  // the worker id, or the dispose is refused (another identity cannot drop a worker). Nothing: no check
-  // (no security, or the worker's writers are gone).
-  void handle_worker_gone(std::uint64_t worker_key, double now_s,
+  // A worker's announcement instance ended: `exit` says whether it left (it disposed its announcement: a
+  // clean shutdown) or was lost (its writers vanished without a word: a crash, kill -9 or a cut link), so
+  // the log says which. `disposed_by`: for a dispose with DDS-Security, the disposing participant's CN (""
+  // unknown); it must own the worker id, or the dispose is refused (another identity cannot drop a
+  // worker). Nothing: no check (no security, or the worker's writers are gone).
+  void handle_worker_gone(std::uint64_t worker_key, double now_s, WorkerExit exit,
                           const std::optional<std::string>& disposed_by = std::nullopt);
   // Applies finished model results, expires silent workers and overdue leases, fills free slots (starting
   // model jobs for the points still needed), publishes changed study states.
