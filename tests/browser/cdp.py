@@ -7,7 +7,7 @@ Python package, no debugging port another process could reach. Steps run in the 
   --wait EXPR        polls the JavaScript expression until it is truthy (fails after --timeout seconds)
   --eval EXPR        evaluates it (promises awaited) and prints its JSON value on one line
   --sleep S          waits S seconds (the page keeps running: live updates arrive meanwhile)
-  --screenshot FILE  a PNG of the whole page
+  --screenshot FILE  a PNG of the whole page (of its top --max-height pixels)
 
 Network: by default every request that leaves the machine goes to a proxy that is not there
 (127.0.0.1:9), so a page that needs a CDN or any remote file fails to load it; loopback and file:// work.
@@ -110,12 +110,13 @@ class Browser:
             raise RuntimeError(f"{expression}: {result['exceptionDetails'].get('exception', {}).get('description')}")
         return result["result"].get("value")
 
-    def screenshot(self, path):
+    def screenshot(self, path, max_height=None):
         metrics = self.send("Page.getLayoutMetrics")
         size = metrics.get("cssContentSize") or metrics["contentSize"]
+        height = min(size["height"], max_height) if max_height else size["height"]
         shot = self.send("Page.captureScreenshot", {
             "format": "png", "captureBeyondViewport": True,
-            "clip": {"x": 0, "y": 0, "width": size["width"], "height": size["height"], "scale": 1}})
+            "clip": {"x": 0, "y": 0, "width": size["width"], "height": height, "scale": 1}})
         with open(path, "wb") as f:
             f.write(base64.b64decode(shot["data"]))
 
@@ -129,6 +130,7 @@ def main():
     parser.add_argument("--timeout", type=float, default=15.0, help="seconds a --wait may take")
     parser.add_argument("--width", type=int, default=1280)
     parser.add_argument("--height", type=int, default=900)
+    parser.add_argument("--max-height", type=int, help="screenshots: at most this many pixels from the top")
     args = parser.parse_args()
 
     browser = Browser(args.width, args.height)
@@ -146,7 +148,7 @@ def main():
             elif kind == "sleep":
                 time.sleep(float(value))
             elif kind == "screenshot":
-                browser.screenshot(value)
+                browser.screenshot(value, args.max_height)
     except RuntimeError as e:
         print(f"cdp.py: {e}", file=sys.stderr)
         return 1

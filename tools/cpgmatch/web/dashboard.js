@@ -56,7 +56,7 @@ function drawStudies(studies) {
       el('td', { class: 'num' }, String(s.in_flight)),
       el('td', { class: 'num' }, String(s.workers)),
       el('td', { class: 'num' }, num(s.rollouts_per_s, 3)),
-      el('td', { class: 'message' }, s.message || ''));
+      el('td', { class: 'msg' }, s.message || ''));
     if (s.study_id === selected) row.classList.add('selected');
     row.addEventListener('click', () => { selected = s.study_id; userSelected = true; draw(); });
     body.append(row);
@@ -73,6 +73,7 @@ function drawCost(study) {
   const costs = study.trials.filter(t => t.ok && !t.fell && t.cost !== null).map(t => t.cost);
   // The y range is the walking costs': a fall's cost (15-19) would flatten them, so falls sit on the top edge.
   const top = costs.length ? Math.max(...costs) * 1.1 : undefined;
+  const ceiling = top === undefined ? undefined : top * 1.06;  // room for the fall markers above `top`
   study.trials.forEach((t, i) => {
     if (t.ok && t.fell) falls.push({ x: t.trial_id, y: top ?? t.cost, cost: t.cost });
     else if (t.ok && t.cost !== null) walked.push({ x: t.trial_id, y: t.cost });
@@ -94,7 +95,7 @@ function drawCost(study) {
   c.data.datasets[0].data = walked;
   c.data.datasets[1].data = falls;
   c.data.datasets[2].data = minimum;
-  c.options.scales.y.max = top;
+  c.options.scales.y.max = ceiling;
   c.update('none');
 }
 
@@ -114,6 +115,16 @@ function drawTerms(study) {
       .map(t => ({ x: t.trial_id, y: Math.max(LOG_FLOOR, t.terms[term]), value: t.terms[term] }));
   });
   c.update('none');
+}
+
+// A parameter's name on lines of about 11 characters, broken at '_' (axis labels sit side by side).
+function wrap(name) {
+  const lines = [];
+  for (const part of name.split('_')) {
+    const last = lines.length - 1;
+    if (last >= 0 && lines[last].length + part.length < 11) lines[last] += `_${part}`; else lines.push(part);
+  }
+  return lines;
 }
 
 function drawParameters(study) {
@@ -138,7 +149,7 @@ function drawParameters(study) {
       scales: { y: { min: 0, max: 1, ticks: { callback: v => (v === 0 ? 'min' : v === 1 ? 'max' : '') } },
                 x: { ticks: { autoSkip: false, maxRotation: 0 } } } },
   });
-  c.data.labels = names.map((n, i) => [n, `${num(range[i][0], 3)} .. ${num(range[i][1], 3)}`]);
+  c.data.labels = names.map((n, i) => [...wrap(n), `${num(range[i][0], 3)} .. ${num(range[i][1], 3)}`]);
   c.data.datasets = order.map(t => ({
     data: names.map((n, i) => (range[i][1] > range[i][0] ? (t.params[n] - range[i][0]) / (range[i][1] - range[i][0]) : 0.5)),
     borderColor: t.fell ? 'rgba(120,120,120,0.45)' : ramp(hi > lo ? (t.cost - lo) / (hi - lo) : 0),
@@ -161,7 +172,8 @@ function drawGait(state) {
     body.append(el('tr', {}, el('td', {}, n), el('td', { class: 'num' }, num(rec ? rec[n] : null)),
                    el('td', { class: 'num' }, num(best ? best[n] : null))));
   }
-  if (best) body.append(el('tr', {}, el('td', {}, 'cost'), el('td', { class: 'num' }, num(state.recommended_predicted_cost)),
+  if (best) body.append(el('tr', {}, el('td', {}, 'cost'),
+                                      el('td', { class: 'num' }, rec ? `${num(state.recommended_predicted_cost)} (GP mean)` : '-'),
                                       el('td', { class: 'num' }, `${num(state.best_cost)} (trial ${state.best_trial})`)));
 }
 
