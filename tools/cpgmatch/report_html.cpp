@@ -98,7 +98,9 @@ std::string report_html(const ReportContent& c) {
 
   html += "<section id=\"gait\"><h2>The gait it found</h2>\n"
           "<p>The recommended gait is the rollout with the lowest GP posterior mean (a single rollout's cost is noisy); "
-          "the lowest single cost is beside it. SI units: rad, Hz, and fractions of a cycle.</p>\n" +
+          "the lowest single cost is beside it. Rollouts are numbered from 1, as in the paper's figures; the study's state "
+          "and the dashboard give trial ids, which count from 0 (rollout N is trial N - 1). SI units: rad, Hz, and "
+          "fractions of a cycle.</p>\n" +
           gait_table(c.report) + "</section>\n";
 
   html += "<section id=\"figures\"><h2>Figures</h2>\n";

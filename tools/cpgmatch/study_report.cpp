@@ -71,7 +71,9 @@ fs::path write_study_report(const fs::path& dir, const StudyAnalysis& a, const s
       {"rollouts", fmt::format("{} ({} from the initial design, {} could not run)", r.rollouts, r.initial_points,
                                r.failed_evaluations)},
       {"falls", fmt::format("{} ({} in the initial design, {} after)", r.falls, r.falls_initial, r.falls_after)},
-      {"lowest cost", r.best_rollout > 0 ? fmt::format("{:.4f} (rollout {})", r.best_cost, r.best_rollout) : "-"},
+      {"lowest cost", r.best_rollout > 0 ? fmt::format("{:.4f} (rollout {}, trial {})", r.best_cost, r.best_rollout,
+                                                       r.best_rollout - 1)  // analysis: rollout = trial id + 1
+                                         : "-"},
       {"terrain, seed", fmt::format("{}, {}", a.config.terrain, a.trials.seed)},
   };
   c.science_table = analysis::format_table(r);
