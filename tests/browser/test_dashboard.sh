@@ -5,7 +5,8 @@
 # its three charts, its completed count rises without a reload (server-sent events), and once the study is
 # done the count on the page equals `cpgmatch status --json`'s. The screenshot taken mid-study is kept in
 # $ARTIFACTS. Also: a second dashboard on the same port, and a bad --bind, exit 2 naming the flag; --bind
-# beyond the loopback says so.
+# beyond the loopback says so; under DDS-Security the dashboard reads as the viewer, and without a certificate
+# it reads nothing.
 source "$(dirname "$0")/lib.sh"
 [[ -f /usr/share/javascript/chart.js/chart.min.js ]] ||
   { echo "SKIP: libjs-chart.js is not installed (deploy/install-deps.sh installs it)"; exit 77; }
@@ -63,4 +64,30 @@ PIDS+=("$OPEN")
 wait_until 10 grep -q "without authentication" "$WORK/open.err" || fail "--bind 0.0.0.0 did not say it serves the network"
 kill "$OPEN" "$DASHBOARD"
 wait "$DASHBOARD" || fail "the dashboard did not end cleanly on SIGTERM (exit $?)"
-echo "PASS dashboard in chromium: mid-study ${page[1]} completed, live to ${page[6]} (= status --json) over $((page[7] - page[2])) updates; screenshot $ARTIFACTS/dashboard-during-study.png"
+kill "$OPT_PID" "$WORKER_PID"
+
+# Under DDS-Security the dashboard is the viewer (its default enclave): it reads the study and its trials; the
+# same dashboard without a certificate reads nothing of the secure domain.
+KS=$WORK/keystore
+"$(dirname "$0")/../../deploy/make-study-pki.sh" "$KS" --days 2 >"$WORK/pki.log" 2>&1 || fail "make-study-pki.sh: $(cat "$WORK/pki.log")"
+write_study "$WORK/secure.yaml" dashboard-secure 8 4
+start_optimizer "$WORK/secure.db" --keystore "$KS"
+# A worker's id must be its certificate's CN or CN/suffix (docs/deploy.md): "worker" here.
+"$BIN/cpgmatch-sim-worker" --domain "$DOMAIN" --id worker --slots 2 --fake-rollout-ms 20 --localhost-only --keystore "$KS" \
+  >>"$WORK/worker-secure.log" 2>&1 &
+PIDS+=("$!")
+for who in viewer nobody; do
+  flags=(); [[ $who == viewer ]] && flags=(--keystore "$KS")
+  "$BIN/cpgmatch" dashboard --port 0 --domain "$DOMAIN" --localhost-only "${flags[@]}" >"$WORK/$who.out" 2>"$WORK/$who.log" &
+  PIDS+=("$!")
+done
+"$BIN/cpgmatch" study submit --config "$WORK/secure.yaml" --wait --quiet --domain "$DOMAIN" --localhost-only --timeout 30 \
+  --keystore "$KS" >/dev/null 2>>"$WORK/cli.log" || fail "the secure study did not finish: $(tail -n 3 "$WORK/cli.log")"
+seen() {  # seen WHO: "<studies> <trials of the first>" on WHO's dashboard
+  curl -sf "$(grep -o 'http://[^ ]*' "$WORK/$1.out")api/snapshot" |
+    python3 -c 'import json,sys; s=json.load(sys.stdin)["studies"]; print(len(s), len(s[0]["trials"]) if s else 0)'
+}
+viewer_saw() { [[ $(seen viewer) == "1 8" ]]; }
+wait_until 10 viewer_saw || fail "the viewer's dashboard shows (studies, trials) $(seen viewer), not 1 study of 8 trials"
+[[ $(seen nobody) == "0 0" ]] || fail "a dashboard without a certificate read the secure domain: $(seen nobody)"
+echo "PASS dashboard in chromium: mid-study ${page[1]} completed, live to ${page[6]} (= status --json) over $((page[7] - page[2])) updates; screenshot $ARTIFACTS/dashboard-during-study.png; under DDS-Security the viewer reads 8 of 8 trials, no certificate none"
