@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # `cpgmatch dashboard` in a real browser during a real study: an optimizer, a simulation worker (fake rollouts)
 # and the dashboard over DDS on the loopback; headless Chromium opens the page while the study runs and keeps it
-# open. The page shows the study running, Chart.js (served by the dashboard, any other host unreachable) draws
-# its three charts, its completed count rises without a reload (server-sent events), and once the study is
-# done the count on the page equals `cpgmatch status --json`'s. The screenshot taken mid-study is kept in
+# open (the study waits for a worker until the page shows that it does). The page shows the study running,
+# Chart.js (served by the dashboard, any other host unreachable) draws its three charts, its completed count
+# rises without a reload (server-sent events), and once the study is done the count on the page equals
+# `cpgmatch status --json`'s. The screenshot taken mid-study is kept in
 # $ARTIFACTS. Also: a second dashboard on the same port, and a bad --bind, exit 2 naming the flag; --bind
 # beyond the loopback says so; under DDS-Security the dashboard reads as the viewer, and without a certificate
 # it reads nothing.
@@ -13,7 +14,6 @@ source "$(dirname "$0")/lib.sh"
 
 write_study "$WORK/s.yaml" dashboard-live 40 6
 start_optimizer "$WORK/s.db"
-start_worker w --slots 1 --fake-rollout-ms 120
 "$BIN/cpgmatch" dashboard --port 0 --domain "$DOMAIN" --localhost-only >"$WORK/dashboard.out" 2>"$WORK/dashboard.log" &
 DASHBOARD=$!
 PIDS+=("$DASHBOARD")
@@ -21,19 +21,32 @@ wait_until 10 grep -q "http://" "$WORK/dashboard.out" || fail "the dashboard pri
 url=$(grep -o 'http://[^ ]*' "$WORK/dashboard.out")
 port=$(sed 's|.*:\([0-9]*\)/$|\1|' <<<"$url")
 
+# The study is submitted before any simulation worker is on the domain: it waits, and says so, while Chromium
+# starts (seconds on a loaded machine, which a short study would not wait for); the worker joins once the page
+# shows that message. So the page is open during the study however slow either is, and shows what it waits for.
 id=$(cli study submit --config "$WORK/s.yaml" --timeout 20) || fail "submit failed"
 completed="document.getElementById('completed-$id')?.textContent"
-state="document.querySelector('#studies tr[data-study=\"$id\"] .state')?.textContent"
-browser "$url" --timeout 25 \
-  --wait "+($completed) >= 3" \
+row="#studies tr[data-study=\"$id\"]"
+state="document.querySelector('$row .state')?.textContent"
+"${CDP[@]}" "$url" --timeout 40 \
+  --wait "(document.querySelector('$row .msg')?.textContent || '').startsWith('waiting for simulation workers')" \
+  --eval "document.querySelector('$row .msg').textContent" \
+  --wait "$state === 'running' && +($completed) >= 3" \
   --eval "$state" --eval "+($completed)" --eval "+document.body.dataset.updates" \
   --eval "typeof Chart" --eval "Object.keys(Chart.instances).length" \
   --eval "Chart.getChart('chart-cost').data.datasets[0].data.length + Chart.getChart('chart-cost').data.datasets[1].data.length" \
   --screenshot "$ARTIFACTS/dashboard-during-study.png" \
   --wait "$state === 'done'" \
-  --eval "+($completed)" --eval "+document.body.dataset.updates" >"$WORK/page.jsonl"
+  --eval "+($completed)" --eval "+document.body.dataset.updates" >"$WORK/page.jsonl" 2>"$WORK/cdp.err" &
+BROWSER=$!
+PIDS+=("$BROWSER")
+wait_until 40 test -s "$WORK/page.jsonl" || fail "the page never showed what the study waits for: $(cat "$WORK/cdp.err")"
+start_worker w --slots 1 --fake-rollout-ms 120
+wait "$BROWSER" || fail "chromium: $(cat "$WORK/cdp.err")"
 mapfile -t page <"$WORK/page.jsonl"
-[[ ${#page[@]} -eq 8 ]] || fail "chromium gave ${#page[@]} values: ${page[*]}"
+[[ ${#page[@]} -eq 9 ]] || fail "chromium gave ${#page[@]} values: ${page[*]}"
+[[ ${page[0]} == "\"waiting for simulation workers: none on domain $DOMAIN\"" ]] || fail "the page's message: ${page[0]}"
+page=("${page[@]:1}")
 [[ ${page[0]} == '"running"' ]] || fail "mid-study the page said the study is ${page[0]}"
 [[ ${page[3]} == '"function"' ]] || fail "Chart.js did not load from the dashboard: typeof Chart = ${page[3]}"
 [[ ${page[4]} -eq 3 ]] || fail "${page[4]} charts drawn, not 3 (cost, terms, parameters)"
