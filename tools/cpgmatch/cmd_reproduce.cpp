@@ -92,7 +92,7 @@ void add_reproduce_command(CLI::App& app) {
     } catch (const std::exception& e) {
       fmt::print(stderr, "replicate figures: {}\n", e.what());
     }
-    fmt::print("results: {}  (replicates.json, replicates.txt, replicates_min_cost/replicates_feedback .png/.svg, seed-*/)\n",
+    fmt::print("results: {}  (replicates.json, replicates.txt, replicates_min_cost/replicates_feedback .png/.svg, seed-*/ each with its report.html)\n",
                out.string());
   });
 }

@@ -43,7 +43,7 @@ void add_study_command(CLI::App& app) {
     fmt::print("\nstudy '{}': {} rollouts in {:.1f} s ({:.2f} rollouts/s)\n", result.config.name, a.report.rollouts,
                result.wall_time_s, a.report.rollouts / result.wall_time_s);
     fmt::print("{}{}", analysis::format_table(a.report), a.sim2real_text);
-    fmt::print("results: {}  (analysis.json, fig4/fig5a/fig5b/fig6/fig6_cot/param_slices/param_importance/param_parallel .png/.svg, trials.jsonl, best_params.yaml, study.db)\n",
+    fmt::print("results: {}  (report.html, analysis.json, fig4/fig5a/fig5b/fig6/fig6_cot/param_slices/param_importance/param_parallel .png/.svg, trials.jsonl, best_params.yaml, study.db)\n",
                result.dir.string());
   });
 }

@@ -26,6 +26,10 @@ void add_plot_command(CLI::App& app);
 void add_reproduce_command(CLI::App& app);
 // A stored study's trials as CSV, JSON or an Optuna journal.
 void add_export_command(CLI::App& app);
+// `report`: a stored study's figures and one self-contained report.html.
+void add_report_command(CLI::App& app);
+// `dashboard`: a live, read-only web page of every study on a DDS domain.
+void add_dashboard_command(CLI::App& app);
 // Simulation versus hardware rollouts of a stored (mixed) study.
 void add_sim2real_command(CLI::App& app);
 // An emergency stop (latched) or its release for robot agents, over DDS.

@@ -28,6 +28,8 @@ int main(int argc, char** argv) {
   cpgmatch::cli::add_analyze_command(app);
   cpgmatch::cli::add_plot_command(app);
   cpgmatch::cli::add_export_command(app);
+  cpgmatch::cli::add_report_command(app);
+  cpgmatch::cli::add_dashboard_command(app);
   cpgmatch::cli::add_reproduce_command(app);
   cpgmatch::cli::add_sim2real_command(app);
   cpgmatch::cli::add_estop_command(app);

@@ -91,36 +91,36 @@ void print_figure_report(const analysis::FigureReport& report) {
   for (const auto& error : report.failed) fmt::print(stderr, "figure failed: {}\n", error);
 }
 
-bool write_study_figures(const fs::path& dir, const StudyAnalysis& a, bool trace_best, bool quiet) {
-  bool ok = true;
+analysis::FigureReport write_study_figures(const fs::path& dir, const StudyAnalysis& a, bool trace_best, bool quiet) {
+  analysis::FigureReport all;
+  auto failed = [&](const std::string& what, const std::exception& e) {
+    fmt::print(stderr, "{}: {}\n", what, e.what());
+    all.failed.push_back(fmt::format("{}: {}", what, e.what()));
+  };
   try {
-    const analysis::FigureReport report = analysis::plot_study(a.trials, dir);
-    if (!quiet) print_figure_report(report);
-    ok = report.failed.empty();
-    if (quiet) for (const auto& error : report.failed) fmt::print(stderr, "figure failed: {}\n", error);
+    all = analysis::plot_study(a.trials, dir);
+    if (!quiet) print_figure_report(all);
+    if (quiet) for (const auto& error : all.failed) fmt::print(stderr, "figure failed: {}\n", error);
   } catch (const std::exception& e) {
-    fmt::print(stderr, "figures: {}\n", e.what());
-    ok = false;
+    failed("figures", e);
   }
   if (a.has_hardware) {
     try {
-      analysis::plot_sim2real(a.all_trials, dir);
+      for (auto& f : analysis::plot_sim2real(a.all_trials, dir)) all.files.push_back(std::move(f));
     } catch (const std::exception& e) {
-      fmt::print(stderr, "sim2real figure: {}\n", e.what());
-      ok = false;
+      failed("sim2real figure", e);
     }
   }
-  if (!trace_best || a.report.best_rollout <= 0) return ok;
+  if (!trace_best || a.report.best_rollout <= 0) return all;
   try {
     const fs::path trace = fs::absolute(dir) / "best_trace.csv";
     sim::run_sim_rollout(study_job(*a.spec, analysis::answer_params(a.report), a.trials.seed), make_csv_trace(trace.string()));
-    analysis::plot_trace(trace, dir);
+    for (auto& f : analysis::plot_trace(trace, dir)) all.files.push_back(std::move(f));
   } catch (const std::exception& e) {
-    fmt::print(stderr, "fig4: {}\n", e.what());
-    ok = false;
+    failed("fig4", e);
   }
-  if (!quiet && ok) fmt::print(stderr, "figures written to {}\n", fs::absolute(dir).string());
-  return ok;
+  if (!quiet && all.failed.empty()) fmt::print(stderr, "figures written to {}\n", fs::absolute(dir).string());
+  return all;
 }
 
 }  // namespace cpgmatch::cli

@@ -45,8 +45,9 @@ StudyAnalysis analyse_stored_study(const study::StoredStudy& stored, int jitter_
 void print_figure_report(const analysis::FigureReport& report);
 
 // fig5a/fig5b/fig6 and the parameter figures into dir; with `trace_best`, also one traced rollout of the best parameters
-// (best_trace.csv) and fig4 from it. Figure failures are reported on stderr and returned as false:
-// the study's numbers are still good without them.
-bool write_study_figures(const std::filesystem::path& dir, const StudyAnalysis& a, bool trace_best, bool quiet);
+// (best_trace.csv) and fig4 from it. Figure failures are reported on stderr and in the returned report's `failed`
+// (the study's numbers are still good without them); what the data could not give is in its `not_drawn`.
+analysis::FigureReport write_study_figures(const std::filesystem::path& dir, const StudyAnalysis& a, bool trace_best,
+                                           bool quiet);
 
 }  // namespace cpgmatch::cli

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/analysis/stored_study_trials.hpp"
+#include "study_report.hpp"
 
 namespace cpgmatch::cli {
 namespace {
@@ -37,7 +38,8 @@ StudyAnalysis write_study_results(const LocalStudyResult& run, int jitter_draws,
     for (const auto& r : run.records) trials << trial_line(r).dump() << '\n';
   }
   // The store, not the DDS records, is the study's record of truth (and what `analyze` reads later).
-  StudyAnalysis a = analyse_stored_study(analysis::load_stored_study(run.store, run.study_id), jitter_draws, quiet);
+  const study::StoredStudy stored = analysis::load_stored_study(run.store, run.study_id);
+  StudyAnalysis a = analyse_stored_study(stored, jitter_draws, quiet);
   a.json["wall_time_s"] = run.wall_time_s;
   a.json["workers"] = run.workers;
   a.json["store"] = run.store;
@@ -53,7 +55,13 @@ StudyAnalysis write_study_results(const LocalStudyResult& run, int jitter_draws,
                  : fmt::format("rollout {} (cost {:.4f})\n", a.report.best_rollout, a.report.best_cost));
     for (const auto& [k, v] : analysis::answer_params(a.report)) yaml << k << ": " << v << '\n';
   }
-  write_study_figures(run.dir, a, /*trace_best=*/true, quiet);
+  const analysis::FigureReport figures = write_study_figures(run.dir, a, /*trace_best=*/true, quiet);
+  // report.html last: it embeds the figures just drawn.
+  try {
+    write_study_report(run.dir, a, stored, figures);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "report.html: {}\n", e.what());  // the study's results stand without it
+  }
   return a;
 }
 

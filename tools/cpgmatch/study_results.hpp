@@ -1,5 +1,5 @@
 // What a finished local study leaves in its results folder: trials.jsonl, best_params.yaml,
-// analysis.json (the science report) and the figures. Shared by `study run` and `reproduce`.
+// analysis.json (the science report), the figures and report.html. Shared by `study run` and `reproduce`.
 #pragma once
 
 #include "local_study.hpp"

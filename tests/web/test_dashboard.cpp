@@ -1,0 +1,208 @@
+// The dashboard without DDS: the snapshot built from client JSON, and the HTTP server (real sockets on the
+// loopback): the page and Chart.js served, the event stream, read-only, and the bind errors.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "cpgmatch/errors.hpp"
+#include "dashboard_server.hpp"
+#include "dashboard_snapshot.hpp"
+
+namespace cpgmatch::cli::dashboard {
+namespace {
+
+using nlohmann::json;
+
+json record(int study, int trial, const json& cost, bool ok, bool fell, const std::string& worker) {
+  return {{"study_id", study},
+          {"trial_id", trial},
+          {"initial", trial <= 2},
+          {"params", {{"frequency", 0.5 + 0.1 * trial}, {"overswing", 0.1}}},
+          {"report",
+           {{"ok", ok},
+            {"fell", fell},
+            {"outcome", ok ? (fell ? "fell" : "completed") : "error"},
+            {"cost", cost},
+            {"worker_id", worker},
+            {"terms", {{"feedback", 0.1}, {"distance", 0.2}, {"pitch", 0.0}, {"contact", 0.0}, {"periodicity", 0.01}}},
+            {"mean_speed_mps", 0.4},
+            {"normalized_torque", 3.0},
+            {"energy", {{"electrical_j", 12.0}}}}}};
+}
+
+TEST(DashboardSnapshot, CurrentMinimumIsTheBestCostSoFarAndNullUntilARolloutRan) {
+  const std::vector<json> trials = {trial_summary(record(1, 1, nullptr, false, false, "w")),
+                                    trial_summary(record(1, 2, 0.9, true, false, "w")),
+                                    trial_summary(record(1, 3, 17.0, true, true, "w")),
+                                    trial_summary(record(1, 4, 0.5, true, false, "w")),
+                                    trial_summary(record(1, 5, 0.7, true, false, "w"))};
+  EXPECT_EQ(current_minimum(trials), json::parse("[null, 0.9, 0.9, 0.5, 0.5]"));
+}
+
+TEST(DashboardSnapshot, TrialSummaryKeepsWhatThePageDrawsAndDropsTheRest) {
+  const json t = trial_summary(record(1, 3, 17.0, true, true, "w0"));
+  EXPECT_EQ(t["trial_id"], 3);
+  EXPECT_EQ(t["fell"], true);
+  EXPECT_EQ(t["cost"], 17.0);
+  EXPECT_EQ(t["worker_id"], "w0");
+  EXPECT_EQ(t["terms"]["periodicity"], 0.01);
+  EXPECT_EQ(t["params"]["overswing"], 0.1);
+  EXPECT_FALSE(t.contains("energy"));
+  // A record missing fields (an older optimizer's) gives nulls, not an exception.
+  EXPECT_TRUE(trial_summary(json{{"trial_id", 7}})["cost"].is_null());
+}
+
+TEST(DashboardSnapshot, StudiesNewestFirstAndEachWorkerWithWhatItLastReported) {
+  DomainView v;
+  v.domain = 82;
+  v.optimizer_heard = true;
+  v.states[1] = {{"study_id", 1}, {"state", "done"}};
+  v.states[2] = {{"study_id", 2}, {"state", "running"}};
+  v.trials[1] = {record(1, 1, 0.9, true, false, "a"), record(1, 2, 0.8, true, false, "b")};
+  v.trials[2] = {record(2, 1, 0.7, true, false, "a"), record(2, 2, 0.6, true, false, "a")};
+  v.workers["a"] = {{"worker_id", "a"}, {"slots", 2}};
+  v.workers["b"] = {{"worker_id", "b"}, {"slots", 1}};
+  v.workers["c"] = {{"worker_id", "c"}, {"slots", 1}};
+  const json s = snapshot_json(v);
+  EXPECT_EQ(s["domain"], 82);
+  ASSERT_EQ(s["studies"].size(), 2u);
+  EXPECT_EQ(s["studies"][0]["state"]["study_id"], 2);
+  EXPECT_EQ(s["studies"][0]["parameters"], json::parse(R"(["frequency", "overswing"])"));
+  EXPECT_EQ(s["studies"][1]["current_minimum"], json::parse("[0.9, 0.8]"));
+  ASSERT_EQ(s["workers"].size(), 3u);
+  EXPECT_EQ(s["workers"][0]["last_trial"], json::parse(R"({"study_id": 2, "trial_id": 2, "outcome": "completed"})"));
+  EXPECT_EQ(s["workers"][1]["last_trial"]["study_id"], 1);
+  EXPECT_TRUE(s["workers"][2]["last_trial"].is_null());
+}
+
+TEST(SnapshotFeed, OnlyAChangedTextIsANewVersionAndCloseWakesWaiters) {
+  SnapshotFeed feed;
+  feed.publish("a");
+  feed.publish("a");
+  EXPECT_EQ(feed.latest().version, 1u);
+  EXPECT_FALSE(feed.wait_newer(1, std::chrono::milliseconds(20)));
+  feed.publish("b");
+  const auto next = feed.wait_newer(1, std::chrono::milliseconds(20));
+  ASSERT_TRUE(next);
+  EXPECT_EQ(next->json, "b");
+  std::thread closer([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    feed.close();
+  });
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_FALSE(feed.wait_newer(2, std::chrono::seconds(10)));
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
+  closer.join();
+}
+
+TEST(Loopback, OnlyLoopbackAddressesAre) {
+  EXPECT_TRUE(is_loopback("127.0.0.1"));
+  EXPECT_TRUE(is_loopback("127.3.2.1"));
+  EXPECT_TRUE(is_loopback("::1"));
+  EXPECT_TRUE(is_loopback("localhost"));
+  EXPECT_FALSE(is_loopback("0.0.0.0"));
+  EXPECT_FALSE(is_loopback("::"));
+  EXPECT_FALSE(is_loopback("192.168.1.4"));
+}
+
+class ServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    feed_.publish(R"({"studies":[],"n":1})");
+    port_ = server_.bind("127.0.0.1", 0);
+    thread_ = std::thread([this] { server_.serve(); });
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
+    // serve() listens after bind: wait until it answers.
+    for (int i = 0; i < 200 && !client_->Get("/api/snapshot"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  void TearDown() override {
+    feed_.close();
+    server_.stop();
+    thread_.join();
+  }
+  SnapshotFeed feed_;
+  DashboardServer server_{feed_, "/* chart.js */ var Chart = 1;"};
+  int port_ = 0;
+  std::thread thread_;
+  std::unique_ptr<httplib::Client> client_;
+};
+
+TEST_F(ServerTest, ServesThePageItsScriptsAndTheSnapshot) {
+  const auto page = client_->Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("<script src=\"/chart.js\">"), std::string::npos);
+  EXPECT_EQ(page->body.find("http"), std::string::npos) << "the page must load nothing from another host";
+  EXPECT_NE(page->get_header_value("Content-Security-Policy").find("default-src 'self'"), std::string::npos);
+  const auto chart = client_->Get("/chart.js");
+  ASSERT_TRUE(chart);
+  EXPECT_EQ(chart->body, "/* chart.js */ var Chart = 1;");
+  const auto js = client_->Get("/dashboard.js");
+  ASSERT_TRUE(js);
+  EXPECT_NE(js->body.find("EventSource"), std::string::npos);
+  const auto snapshot = client_->Get("/api/snapshot");
+  ASSERT_TRUE(snapshot);
+  EXPECT_EQ(snapshot->body, R"({"studies":[],"n":1})");
+  EXPECT_EQ(snapshot->get_header_value("Content-Type"), "application/json");
+  EXPECT_EQ(client_->Get("/no-such-page")->status, 404);
+}
+
+TEST_F(ServerTest, IsReadOnly) {
+  for (const auto& result : {client_->Post("/api/snapshot", "x", "text/plain"), client_->Put("/", "x", "text/plain"),
+                             client_->Delete("/events"), client_->Post("/no-such-page", "", "text/plain")}) {
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->status, 405);
+    EXPECT_EQ(result->get_header_value("Allow"), "GET, HEAD");
+  }
+}
+
+TEST_F(ServerTest, EventStreamSendsTheSnapshotAtOnceAndThenEachChange) {
+  std::string received;
+  std::thread publisher([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    feed_.publish(R"({"studies":[],"n":2})");
+  });
+  const auto result = client_->Get("/events", [&](const char* data, std::size_t length) {
+    received.append(data, length);
+    return received.find(R"("n":2)") == std::string::npos;  // stop after the second snapshot
+  });
+  publisher.join();
+  EXPECT_NE(received.find("event: snapshot\ndata: {\"studies\":[],\"n\":1}\n\n"), std::string::npos) << received;
+  EXPECT_NE(received.find("event: snapshot\ndata: {\"studies\":[],\"n\":2}\n\n"), std::string::npos) << received;
+  EXPECT_LT(received.find(R"("n":1)"), received.find(R"("n":2)"));
+}
+
+TEST_F(ServerTest, APortInUseIsAnInputErrorNamingThePort) {
+  SnapshotFeed other_feed;
+  DashboardServer other(other_feed, "");
+  try {
+    other.bind("127.0.0.1", port_);
+    FAIL() << "a second server bound port " << port_;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(fmt::format("--port {}: already in use", port_)), std::string::npos) << e.what();
+  }
+}
+
+TEST(DashboardBind, BadAddressesArePortsOutOfRangeAreInputErrorsNamingTheFlag) {
+  SnapshotFeed feed;
+  DashboardServer server(feed, "");
+  auto message = [&](const std::string& address, int port) {
+    try {
+      server.bind(address, port);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("bound");
+  };
+  EXPECT_NE(message("not-an-address", 0).find("--bind 'not-an-address': not an IPv4 or IPv6 address"), std::string::npos);
+  EXPECT_NE(message("300.1.1.1", 0).find("--bind"), std::string::npos);
+  // TEST-NET-1 (RFC 5737): an address no machine here has.
+  EXPECT_NE(message("192.0.2.1", 0).find("--bind 192.0.2.1: not an address of this machine"), std::string::npos);
+  EXPECT_NE(message("127.0.0.1", 70000).find("--port 70000: must be 0..65535"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cpgmatch::cli::dashboard
