@@ -195,10 +195,10 @@ class DdsOutbox final : public Outbox {
 
 // The ROS 2 view (docs/ros2.md), or nothing when it is off or cannot be created: it is a read-only mirror,
 // and an enclave of a keystore made before it existed may not publish rt/ topics; the service runs on.
-std::unique_ptr<dds::Ros2View> make_ros2_view(dds::Participant& participant, bool wanted) {
+std::unique_ptr<dds::Ros2View> make_ros2_view(dds::Participant& participant, bool wanted, bool type_info) {
   if (!wanted) return nullptr;
   try {
-    return std::make_unique<dds::Ros2View>(participant);
+    return std::make_unique<dds::Ros2View>(participant, type_info);
   } catch (const std::exception& e) {
     spdlog::warn("no ROS 2 view ({}): {}; the native cpgmatch/ topics are unaffected", dds::Ros2View::kStateTopic,
                  e.what());
@@ -207,7 +207,7 @@ std::unique_ptr<dds::Ros2View> make_ros2_view(dds::Participant& participant, boo
 }
 
 int run(int domain, const std::string& store_path, bool full_durability, double worker_timeout_s, bool localhost_only,
-        int model_threads, int acquisition_threads, bool ros2_view) {
+        int model_threads, int acquisition_threads, bool ros2_view, bool ros2_type_info) {
   dds::validate_domain(domain);
   if (worker_timeout_s <= 0.0) throw InputError("--worker-timeout must be > 0");
   if (model_threads < 1 || model_threads > 64) throw InputError("--model-threads must be in [1, 64]");
@@ -250,9 +250,9 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   };
   dds_config.track_identities = secure;
   dds_config.on_identity_refused = [](const std::string& why) { spdlog::warn("{}", why); };
-  dds_config.serve_type_lookup = ros2_view;  // the ROS 2 view's types, for DDS Record & Replay
+  dds_config.serve_type_lookup = ros2_view && ros2_type_info;  // the ROS 2 view's types, for DDS Record & Replay
   dds::Participant participant(dds_config);
-  const std::unique_ptr<dds::Ros2View> ros2 = make_ros2_view(participant, ros2_view);
+  const std::unique_ptr<dds::Ros2View> ros2 = make_ros2_view(participant, ros2_view, ros2_type_info);
   DdsOutbox dds_outbox(participant, ros2.get());
   DeferredOutbox outbox(dds_outbox);
   service::Coordinator coordinator(
@@ -385,7 +385,7 @@ int main(int argc, char** argv) {
   CLI::App app{"cpgmatch-optimizer: the central optimizer service (studies, candidates, reports over DDS)"};
   int domain = -1;
   std::string store = "cpgmatch-studies.db";
-  bool full_durability = false, localhost_only = false, no_ros2_view = false;
+  bool full_durability = false, localhost_only = false, no_ros2_view = false, ros2_type_info = false;
   double worker_timeout_s = 2.5;
   int model_threads = service::default_model_threads();
   int acquisition_threads = std::min(service::default_model_threads(), 2);
@@ -404,6 +404,9 @@ int main(int argc, char** argv) {
   app.add_flag("--localhost-only", localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   app.add_flag("--no-ros2-view", no_ros2_view,
                "do not publish the ROS 2 view (rt/cpgmatch/study_state, trials, workers; docs/ros2.md)");
+  app.add_flag("--ros2-type-info", ros2_type_info,
+               "announce the ROS 2 view's types (XTypes TypeInformation, TypeLookup service) for eProsima DDS Record & "
+               "Replay; ROS 2 nodes on Cyclone DDS 0.10 then see no view (docs/ros2.md)");
   app.add_option("--log-level", log_level, "log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
@@ -427,6 +430,7 @@ int main(int argc, char** argv) {
     runtime::export_config_dir();
     runtime::apply_dds_flags(dds_flags);
     return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
-                        worker_timeout_s, localhost_only, model_threads, acquisition_threads, !no_ros2_view);
+                        worker_timeout_s, localhost_only, model_threads, acquisition_threads, !no_ros2_view,
+                        ros2_type_info);
   });
 }

@@ -9,7 +9,13 @@
 #include <string>
 #include <thread>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
+#include <fastrtps/types/DynamicType.h>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
@@ -80,9 +86,12 @@ TEST(Ros2Messages, ATrialCarriesItsParametersAndMeasurementsInSiUnits) {
   EXPECT_EQ(r.trial_id_(), 17u);
   EXPECT_EQ(r.attempt_(), 2u);
   EXPECT_TRUE(r.initial_());
-  ASSERT_EQ(r.parameters_().size(), 2u);
-  EXPECT_EQ(r.parameters_()[0].name_().to_string(), "frequency");
-  EXPECT_DOUBLE_EQ(r.parameters_()[0].value_(), 1.25);
+  ASSERT_EQ(r.param_names_().size(), 2u);
+  ASSERT_EQ(r.param_values_().size(), 2u);
+  EXPECT_EQ(r.param_names_()[0].to_string(), "frequency");
+  EXPECT_DOUBLE_EQ(r.param_values_()[0], 1.25);
+  EXPECT_EQ(r.param_names_()[1].to_string(), "knee_amplitude");
+  EXPECT_DOUBLE_EQ(r.param_values_()[1], 0.5);
   EXPECT_EQ(r.worker_kind_(), ros::TrialRecord_Constants::WORKER_HARDWARE_);
   EXPECT_EQ(r.outcome_(), ros::TrialRecord_Constants::OUTCOME_FELL_);
   EXPECT_TRUE(r.fell_());
@@ -119,13 +128,15 @@ struct LateRosSubscriber {
     qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
     qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
     qos.history().depth = 10;
-    reader = p.subscriber()->create_datareader(topic, qos);
+    subscriber = p.subscriber();
+    reader = subscriber->create_datareader(topic, qos);
   }
   ~LateRosSubscriber() {
-    reader->get_subscriber()->delete_datareader(reader);
+    subscriber->delete_datareader(reader);
     participant->delete_topic(topic);
   }
-  // study id -> the last state read of it, after waiting up to `timeout` for `studies` of them.
+  // Study id -> the last state read of it, for the studies below 10 (the other test on this domain publishes
+  // study 77), after waiting up to `timeout` for `studies` of them.
   std::map<std::uint32_t, ros::StudyState_> read(std::size_t studies, std::chrono::milliseconds timeout) {
     std::map<std::uint32_t, ros::StudyState_> got;
     const auto deadline = std::chrono::steady_clock::now() + timeout;
@@ -133,20 +144,21 @@ struct LateRosSubscriber {
       ros::StudyState_ s;
       fdds::SampleInfo info;
       while (reader->take_next_sample(&s, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
-        if (info.valid_data) got[s.study_id_()] = s;
+        if (info.valid_data && s.study_id_() < 10) got[s.study_id_()] = s;
       }
       std::this_thread::sleep_for(20ms);
     }
     return got;
   }
   fdds::DomainParticipant* participant = nullptr;
+  fdds::Subscriber* subscriber = nullptr;
   fdds::Topic* topic = nullptr;
   fdds::DataReader* reader = nullptr;
 };
 
 TEST(Ros2View, ALateSubscriberGetsTheLatestStateOfEveryOpenStudy) {
   dds::Participant optimizer(dds::ParticipantConfig::basic(80, "test-ros2-optimizer", true));
-  dds::Ros2View view(optimizer);
+  dds::Ros2View view(optimizer, false);
   // Study 1 changes after study 2 did: with one unkeyed writer a late subscriber would see study 1 only.
   ASSERT_TRUE(view.publish_state(state(1, domain::StudyStatus::kRunning, 3)));
   ASSERT_TRUE(view.publish_state(state(2, domain::StudyStatus::kRunning, 5)));
@@ -165,7 +177,9 @@ TEST(Ros2View, ALateSubscriberGetsTheLatestStateOfEveryOpenStudy) {
     EXPECT_EQ(got.at(1).name_().to_string(), "study-1");
     EXPECT_EQ(got.at(2).completed_(), 5u);
     EXPECT_DOUBLE_EQ(got.at(2).best_cost_(), 0.5);
-    ASSERT_EQ(got.at(2).best_params_().size(), 2u);
+    ASSERT_EQ(got.at(2).best_param_names_().size(), 2u);
+    EXPECT_EQ(got.at(2).best_param_names_()[1].to_string(), "hip_amplitude");
+    EXPECT_DOUBLE_EQ(got.at(2).best_param_values_()[1], 0.3);
     EXPECT_EQ(got.count(9), 0u);
   }
   // Study 2's records leave (retire_trial): so does its state, and the next late subscriber sees study 1 only.
@@ -174,6 +188,91 @@ TEST(Ros2View, ALateSubscriberGetsTheLatestStateOfEveryOpenStudy) {
   const auto got = later.read(2, 3s);
   EXPECT_EQ(got.size(), 1u);
   EXPECT_EQ(got.count(1), 1u);
+}
+
+// What eProsima DDS Record & Replay does with a topic it discovers: it takes the writer's TypeInformation and
+// asks the writer's participant for the types (TypeLookup), then builds the type to record with.
+struct TypeDiscoverer : fdds::DomainParticipantListener {
+  std::mutex mutex;
+  std::map<std::string, std::string> type_of_topic;                     // announced in discovery
+  std::map<std::string, eprosima::fastrtps::types::TypeInformation> info;  // by type name
+  std::map<std::string, eprosima::fastrtps::types::DynamicType_ptr> built;
+  void on_type_information_received(fdds::DomainParticipant*, const eprosima::fastrtps::string_255 topic,
+                                    const eprosima::fastrtps::string_255 type,
+                                    const eprosima::fastrtps::types::TypeInformation& information) override {
+    std::lock_guard<std::mutex> lock(mutex);
+    type_of_topic[topic.to_string()] = type.to_string();
+    info[type.to_string()] = information;
+  }
+};
+
+template <class F>
+bool eventually(F condition, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!condition()) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(20ms);
+  }
+  return true;
+}
+
+// The recorder's side, in a process of its own (as DDS Record & Replay is): waits for the TypeInformation of
+// rt/cpgmatch/study_state, fetches the type by TypeLookup and checks it. Exit code 0: learned; 1: nothing
+// announced; 2: the announced type name is wrong; 3: TypeLookup delivered no type; 4: a type of another shape.
+int learn_state_type_as_a_recorder() {
+  TypeDiscoverer recorder;
+  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  qos.wire_protocol().builtin.typelookup_config.use_client = true;
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  fdds::DomainParticipant* participant = factory->create_participant(80, qos, &recorder, fdds::StatusMask::none());
+  if (participant == nullptr) return 1;
+  const std::string state_type = "cpgmatch_msgs::msg::dds_::StudyState_";
+  int result = 0;
+  eprosima::fastrtps::types::TypeInformation information;
+  auto locked = [&](auto f) {
+    std::lock_guard<std::mutex> lock(recorder.mutex);
+    return f();
+  };
+  if (!eventually([&] { return locked([&] { return recorder.type_of_topic.count("rt/cpgmatch/study_state") > 0; }); },
+                  15s)) {
+    result = 1;
+  } else if (locked([&] { return recorder.type_of_topic["rt/cpgmatch/study_state"]; }) != state_type) {
+    result = 2;
+  } else {
+    information = locked([&] { return recorder.info[state_type]; });
+    std::function<void(const std::string&, const eprosima::fastrtps::types::DynamicType_ptr)> on_type =
+        [&](const std::string& name, const eprosima::fastrtps::types::DynamicType_ptr type) {
+          locked([&] { return recorder.built[name] = type; });
+        };
+    participant->register_remote_type(information, state_type, on_type);
+    if (!eventually([&] { return locked([&] { return recorder.built.count(state_type) > 0; }); }, 15s)) {
+      result = 3;
+    } else {
+      // The fields of StudyState.msg.
+      result = locked([&] { return recorder.built[state_type]->get_members_count(); }) == 24u ? 0 : 4;
+    }
+  }
+  participant->delete_contained_entities();
+  factory->delete_participant(participant);
+  return result;
+}
+
+TEST(Ros2View, WithTypeInformationARecorderLearnsTheTypesOfTheTopics) {
+  // Forked before this process touches DDS (ctest runs each test in a process of its own): in a process that
+  // has the types already, Fast DDS asks for none.
+  const pid_t recorder = fork();
+  ASSERT_GE(recorder, 0);
+  if (recorder == 0) _exit(learn_state_type_as_a_recorder());
+  dds::ParticipantConfig config = dds::ParticipantConfig::basic(80, "test-ros2-typed-optimizer", false);
+  config.serve_type_lookup = true;
+  dds::Participant optimizer(config);
+  dds::Ros2View view(optimizer, true);
+  ASSERT_TRUE(view.publish_state(state(77, domain::StudyStatus::kRunning, 1)));
+  int status = 0;
+  ASSERT_EQ(waitpid(recorder, &status, 0), recorder);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "1: no TypeInformation announced, 2: wrong type name, 3: TypeLookup "
+                                       "delivered no type, 4: a type of another shape";
 }
 
 // ---- ROS 2's environment variables as defaults --------------------------------------------------------

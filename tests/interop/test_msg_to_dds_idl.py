@@ -100,10 +100,10 @@ class Mapping(unittest.TestCase):
         files = {n: read(os.path.join(msg_dir, n)) for n in os.listdir(msg_dir)}
         rc, idl, err = convert(files, "cpgmatch_msgs")
         self.assertEqual(rc, 0, err)
-        for struct in ["ParameterValue_", "StudyState_", "TrialRecord_", "Worker_"]:
+        for struct in ["StudyState_", "TrialRecord_", "Worker_"]:
             self.assertIn(f"struct {struct} {{", idl)
         self.assertIn("const octet STATUS_STOPPED_ = 4;", idl)
-        self.assertIn("sequence<cpgmatch_msgs::msg::dds_::ParameterValue_, 32> best_params_;", idl)
+        self.assertIn("sequence<string<32>, 32> best_param_names_;", idl)
 
 
 class Errors(unittest.TestCase):

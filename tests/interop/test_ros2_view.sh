@@ -17,12 +17,12 @@ set -e
 [[ $rc == 2 && $out == *"ROS_DOMAIN_ID: 'eleven' is not a domain id"* ]] || fail "bad ROS_DOMAIN_ID: exit $rc: $out"
 
 export ROS_DOMAIN_ID=$DOMAIN
-write_study "$WORK/s.yaml" ros2view 40 40
+write_study "$WORK/s.yaml" ros2view 60 60
 "$BIN/cpgmatch-optimizer" --store "$WORK/s.db" >>"$WORK/optimizer.log" 2>&1 &
 PIDS+=($!)
 OPT=$!
-# One slot, 150 ms a rollout: the study is still running while the reader looks.
-"$BIN/cpgmatch-sim-worker" --id rw --slots 1 --fake-rollout-ms 150 >>"$WORK/worker.log" 2>&1 &
+# One slot, 250 ms a rollout: the study is still running while the reader looks.
+"$BIN/cpgmatch-sim-worker" --id rw --slots 1 --fake-rollout-ms 250 >>"$WORK/worker.log" 2>&1 &
 PIDS+=($!)
 "$BIN/cpgmatch" study submit --config "$WORK/s.yaml" --quiet --timeout 20 >/dev/null 2>>"$WORK/cli.log" ||
   fail "submit failed"
@@ -30,7 +30,7 @@ out=$("$READER" "$DOMAIN" 1 3 30) || fail "the ROS 2-style Cyclone reader got no
 state=$(sed -n 1p <<<"$out")
 trial=$(sed -n 2p <<<"$out")
 [[ $state == "state study 1 status 0 completed "* ]] || fail "not the state of a running study: $state"
-[[ $state == *" budget 40 name ros2view type cpgmatch_msgs::msg::dds_::StudyState_" ]] || fail "state: $state"
+[[ $state == *" budget 60 name ros2view type cpgmatch_msgs::msg::dds_::StudyState_" ]] || fail "state: $state"
 [[ $trial == "trial study 1 trial "*" outcome 0 cost "*" type cpgmatch_msgs::msg::dds_::TrialRecord_" ]] ||
   fail "trial: $trial"
 

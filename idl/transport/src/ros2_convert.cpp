@@ -9,16 +9,19 @@ namespace {
 
 std::uint32_t u32(int v) { return v < 0 ? 0u : static_cast<std::uint32_t>(v); }
 
-std::vector<ros::ParameterValue_> parameters(const std::map<std::string, double>& named) {
-  std::vector<ros::ParameterValue_> out;
-  out.reserve(named.size());
+// Named parameters as the .msg files carry them: two parallel arrays, names and values.
+template <class Msg>
+void set_parameters(const std::map<std::string, double>& named, Msg& out,
+                    void (Msg::*names)(const std::vector<eprosima::fastrtps::fixed_string<32>>&),
+                    void (Msg::*values)(const std::vector<double>&)) {
+  std::vector<eprosima::fastrtps::fixed_string<32>> n;
+  std::vector<double> v;
   for (const auto& [name, value] : named) {
-    ros::ParameterValue_ p;
-    p.name_(name);
-    p.value_(value);
-    out.push_back(p);
+    n.emplace_back(name);
+    v.push_back(value);
   }
-  return out;
+  (out.*names)(n);
+  (out.*values)(v);
 }
 
 std::uint8_t ros_kind(domain::WorkerKind kind) {
@@ -68,7 +71,7 @@ ros::StudyState_ to_ros(const domain::StudyState& s) {
   out.workers_(u32(s.workers));
   out.best_cost_(s.best_cost);
   out.best_trial_(u32(s.best_trial));
-  out.best_params_(parameters(s.best_params));
+  set_parameters(s.best_params, out, &ros::StudyState_::best_param_names_, &ros::StudyState_::best_param_values_);
   out.best_normalized_torque_(s.best_normalized_torque);
   out.best_speed_mps_(s.best_speed_mps);
   out.elapsed_s_(s.elapsed_s);
@@ -77,7 +80,8 @@ ros::StudyState_ to_ros(const domain::StudyState& s) {
   out.has_recommendation_(s.has_recommendation);
   out.recommended_trial_(u32(s.recommendation.trial));
   out.recommended_predicted_cost_(s.recommendation.predicted_cost);
-  out.recommended_params_(parameters(s.recommendation.params));
+  set_parameters(s.recommendation.params, out, &ros::StudyState_::recommended_param_names_,
+                 &ros::StudyState_::recommended_param_values_);
   return out;
 }
 
@@ -89,7 +93,7 @@ ros::TrialRecord_ to_ros(const domain::TrialRecord& t) {
   out.trial_id_(u32(t.trial_id));
   out.attempt_(u32(r.id.attempt));
   out.initial_(t.initial);
-  out.parameters_(parameters(t.parameters));
+  set_parameters(t.parameters, out, &ros::TrialRecord_::param_names_, &ros::TrialRecord_::param_values_);
   out.worker_id_(r.worker_id);
   out.worker_kind_(ros_kind(r.worker_kind));
   out.outcome_(ros_outcome(r.outcome));

@@ -36,12 +36,15 @@ fdds::DataWriterQos view_qos(bool transient_local, int depth) {
   return qos;
 }
 
-fdds::Topic* make_topic(fdds::DomainParticipant* participant, fdds::TopicDataType* type, const char* name) {
+fdds::Topic* make_topic(fdds::DomainParticipant* participant, fdds::TopicDataType* type, const char* name,
+                        bool announce_types) {
   fdds::TypeSupport support(type);
-  // TypeInformation in discovery, TypeObjects on TypeLookup request: what DDS Record & Replay needs to
-  // record a topic with its type. (The native topics keep them off: Cyclone DDS 0.10 drops endpoints that
-  // announce TypeInformation; ROS 2 readers on Cyclone ... see docs/ros2.md.)
-  support->auto_fill_type_information(true);
+  // Announcing TypeInformation is opt-in (Ros2View::Options): Cyclone DDS 0.10 (rmw_cyclonedds) refuses Fast
+  // DDS 2.9's TYPE_INFORMATION parameter and drops the writer, so ROS 2 nodes on Cyclone would see nothing.
+  // TypeObjects in discovery are never sent: Fast DDS 2.9 peers crash building a dynamic type from one
+  // with a sequence of structs (seen: every simulation worker on the domain, SIGSEGV in
+  // TypeObjectFactory::build_dynamic_type).
+  support->auto_fill_type_information(announce_types);
   support->auto_fill_type_object(false);
   if (support.register_type(participant) != ReturnCode_t::RETCODE_OK) {
     throw std::runtime_error(fmt::format("DDS: cannot register type {}", support.get_type_name()));
@@ -83,13 +86,16 @@ struct Ros2View::Impl {
   }
 };
 
-Ros2View::Ros2View(Participant& participant) : impl_(std::make_unique<Impl>()) {
+Ros2View::Ros2View(Participant& participant, bool announce_types) : impl_(std::make_unique<Impl>()) {
   registercpgmatch_ros2_msgsTypes();  // the TypeObjects the TypeLookup service hands out
   impl_->publisher = participant.publisher();
   fdds::DomainParticipant* dp = const_cast<fdds::DomainParticipant*>(impl_->publisher->get_participant());
-  impl_->state_topic = make_topic(dp, new cpgmatch_msgs::msg::dds_::StudyState_PubSubType(), kStateTopic);
-  impl_->trials_topic = make_topic(dp, new cpgmatch_msgs::msg::dds_::TrialRecord_PubSubType(), kTrialsTopic);
-  fdds::Topic* workers_topic = make_topic(dp, new cpgmatch_msgs::msg::dds_::Worker_PubSubType(), kWorkersTopic);
+  impl_->state_topic =
+      make_topic(dp, new cpgmatch_msgs::msg::dds_::StudyState_PubSubType(), kStateTopic, announce_types);
+  impl_->trials_topic =
+      make_topic(dp, new cpgmatch_msgs::msg::dds_::TrialRecord_PubSubType(), kTrialsTopic, announce_types);
+  fdds::Topic* workers_topic =
+      make_topic(dp, new cpgmatch_msgs::msg::dds_::Worker_PubSubType(), kWorkersTopic, announce_types);
   impl_->workers = impl_->writer(workers_topic, view_qos(false, kWorkersDepth));
 }
 

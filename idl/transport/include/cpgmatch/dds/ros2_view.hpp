@@ -15,8 +15,11 @@
 // Worker announcements are republished at each heartbeat the optimizer hears (volatile: every live worker
 // shows within one heartbeat period; history would show workers long gone), and once with alive = false.
 //
-// The writers announce their types (TypeInformation) and the participant answers TypeLookup requests, so
-// eProsima DDS Record & Replay records the topics with their types.
+// Type information for eProsima DDS Record & Replay is opt-in (announce_types): the writers then announce
+// their types (XTypes TypeInformation) and the participant must answer TypeLookup requests
+// (ParticipantConfig::serve_type_lookup), so the recorder stores each topic with its type. It is off by
+// default because Cyclone DDS 0.10, and with it ROS 2 nodes on rmw_cyclonedds, refuses Fast DDS 2.9's
+// TypeInformation and drops the writer (docs/ros2.md).
 #pragma once
 
 #include <cstdint>
@@ -31,7 +34,7 @@ namespace cpgmatch::dds {
 class Ros2View {
  public:
   // Throws when a topic cannot be created (e.g. a DDS-Security enclave not permitted to publish rt/ topics).
-  explicit Ros2View(Participant& participant);
+  Ros2View(Participant& participant, bool announce_types);
   ~Ros2View();
   Ros2View(const Ros2View&) = delete;
   Ros2View& operator=(const Ros2View&) = delete;
