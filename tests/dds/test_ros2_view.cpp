@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <mutex>
 #include <string>
@@ -25,6 +26,7 @@
 #include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/dds/ros2_convert.hpp"
 #include "cpgmatch/dds/ros2_view.hpp"
+#include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch_ros2_msgsPubSubTypes.h"
@@ -273,6 +275,36 @@ TEST(Ros2View, WithTypeInformationARecorderLearnsTheTypesOfTheTopics) {
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0) << "1: no TypeInformation announced, 2: wrong type name, 3: TypeLookup "
                                        "delivered no type, 4: a type of another shape";
+}
+
+// With DDS-Security (a keystore from deploy/make-study-pki.sh) the optimizer's enclave may publish the view and
+// the viewer's may read it. Two identities need two processes: the viewer is forked before any DDS.
+TEST(Ros2View, UnderDdsSecurityTheViewerEnclaveReadsWhatTheOptimizerPublishes) {
+  const std::filesystem::path keystore =
+      std::filesystem::temp_directory_path() / ("cpgmatch-ros2-ks-" + std::to_string(getpid()));
+  const std::string make = std::string(CPGMATCH_SOURCE_DIR) + "/deploy/make-study-pki.sh " + keystore.string() +
+                           " --days 1 >/dev/null";
+  ASSERT_EQ(std::system(make.c_str()), 0) << make;
+  const pid_t viewer = fork();
+  ASSERT_GE(viewer, 0);
+  if (viewer == 0) {
+    dds::select_security(dds::SecuritySelection{keystore, "viewer"});
+    dds::Participant node(dds::ParticipantConfig::basic(80, "test-ros2-viewer", true));
+    LateRosSubscriber late(node);
+    const auto got = late.read(1, 20s);
+    _exit(got.count(5) == 1 && got.at(5).completed_() == 7 ? 0 : 1);
+  }
+  dds::select_security(dds::SecuritySelection{keystore, "optimizer"});
+  {
+    dds::Participant optimizer(dds::ParticipantConfig::basic(80, "test-ros2-secure-optimizer", true));
+    dds::Ros2View view(optimizer, false);  // throws if the optimizer's permissions lacked the rt/ topics
+    ASSERT_TRUE(view.publish_state(state(5, domain::StudyStatus::kRunning, 7)));
+    int status = 0;
+    ASSERT_EQ(waitpid(viewer, &status, 0), viewer);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the viewer enclave read no state of study 5";
+  }
+  dds::select_security({});
+  std::filesystem::remove_all(keystore);
 }
 
 // ---- ROS 2's environment variables as defaults --------------------------------------------------------
