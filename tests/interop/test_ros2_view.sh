@@ -3,7 +3,7 @@
 # cpgmatch_msgs .msg files, as rmw_cyclonedds would, reads the state of a running study from
 # rt/cpgmatch/study_state and one of its trials from rt/cpgmatch/trials, under rosidl's type names. The services
 # find their domain in $ROS_DOMAIN_ID (no --domain), as ROS 2 nodes do; a bad $ROS_DOMAIN_ID is refused by name;
-# --no-ros2-view publishes nothing there.
+# --no-ros2-view publishes nothing there; a study resumed by a restarted optimizer is on the view again.
 source "$(dirname "$0")/../integration/lib.sh"
 READER=${READER:?READER must point at ros2_state_reader}
 # UDP only on the Fast DDS side (Cyclone cannot use Fast DDS's shared memory).
@@ -17,7 +17,7 @@ set -e
 [[ $rc == 2 && $out == *"ROS_DOMAIN_ID: 'eleven' is not a domain id"* ]] || fail "bad ROS_DOMAIN_ID: exit $rc: $out"
 
 export ROS_DOMAIN_ID=$DOMAIN
-write_study "$WORK/s.yaml" ros2view 60 60
+write_study "$WORK/s.yaml" ros2view 200 200
 "$BIN/cpgmatch-optimizer" --store "$WORK/s.db" >>"$WORK/optimizer.log" 2>&1 &
 PIDS+=($!)
 OPT=$!
@@ -30,7 +30,7 @@ out=$("$READER" "$DOMAIN" 1 3 30) || fail "the ROS 2-style Cyclone reader got no
 state=$(sed -n 1p <<<"$out")
 trial=$(sed -n 2p <<<"$out")
 [[ $state == "state study 1 status 0 completed "* ]] || fail "not the state of a running study: $state"
-[[ $state == *" budget 60 name ros2view type cpgmatch_msgs::msg::dds_::StudyState_" ]] || fail "state: $state"
+[[ $state == *" budget 200 name ros2view type cpgmatch_msgs::msg::dds_::StudyState_" ]] || fail "state: $state"
 [[ $trial == "trial study 1 trial "*" outcome 0 cost "*" type cpgmatch_msgs::msg::dds_::TrialRecord_" ]] ||
   fail "trial: $trial"
 
@@ -38,5 +38,16 @@ trial=$(sed -n 2p <<<"$out")
 kill -TERM "$OPT"; wait "$OPT" 2>/dev/null || true
 "$BIN/cpgmatch-optimizer" --store "$WORK/s.db" --no-ros2-view >>"$WORK/optimizer-noview.log" 2>&1 &
 PIDS+=($!)
+OPT=$!
 if quiet=$("$READER" "$DOMAIN" 1 0 4 2>&1); then fail "--no-ros2-view still published: $quiet"; fi
-echo "PASS a ROS 2-style Cyclone DDS reader reads the running study under rosidl's names: $state; $trial"
+
+# Restarted with the view: the resumed study is on it again, with the trials run before the restart.
+kill -TERM "$OPT"; wait "$OPT" 2>/dev/null || true
+"$BIN/cpgmatch-optimizer" --store "$WORK/s.db" >>"$WORK/optimizer-again.log" 2>&1 &
+PIDS+=($!)
+again=$("$READER" "$DOMAIN" 1 3 20) || fail "the resumed study is not on the view: $again"
+[[ $(sed -n 1p <<<"$again") == "state study 1 status 0 completed "* ]] || fail "resumed: $again"
+# The oldest trial in the history, run before the restarts: the resumed study's trials were published again.
+[[ $(sed -n 2p <<<"$again") == "trial study 1 trial 0 "* ]] || fail "resumed, the first trial is not trial 0: $again"
+echo "PASS a ROS 2-style Cyclone DDS reader reads the running study under rosidl's names: $state; $trial;" \
+  "--no-ros2-view publishes nothing; a resumed study is on the view again"

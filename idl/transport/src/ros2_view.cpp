@@ -77,6 +77,18 @@ struct Ros2View::Impl {
   static bool write(fdds::DataWriter* w, const T& sample) {
     return w->write(const_cast<T*>(&sample));
   }
+  StudyWriters& writers_of(int study_id) {
+    auto it = studies.find(study_id);
+    if (it == studies.end()) {
+      StudyWriters w;
+      w.state = writer(state_topic, view_qos(true, 1));
+      // Every trial of the study for a late subscriber; its budget (at most kMaxTrialsDepth) bounds how many
+      // there are, and a KEEP_LAST history takes memory only for what was written.
+      w.trials = writer(trials_topic, view_qos(true, kMaxTrialsDepth));
+      it = studies.emplace(study_id, w).first;
+    }
+    return it->second;
+  }
   void drop(int study_id) {
     const auto it = studies.find(study_id);
     if (it == studies.end()) return;
@@ -105,24 +117,14 @@ Ros2View::~Ros2View() {
 }
 
 bool Ros2View::publish_state(const domain::StudyState& state) {
-  auto it = impl_->studies.find(state.study_id);
-  if (it == impl_->studies.end()) {
-    // A study first seen closed was finished before this service started: not part of the live view.
-    if (!domain::is_open(state.status)) return true;
-    Impl::StudyWriters w;
-    w.state = impl_->writer(impl_->state_topic, view_qos(true, 1));
-    // Every trial of the study for a late subscriber: its budget bounds how many there are (re-issued
-    // attempts are not trials).
-    w.trials = impl_->writer(impl_->trials_topic, view_qos(true, std::clamp(state.budget, 1, kMaxTrialsDepth)));
-    it = impl_->studies.emplace(state.study_id, w).first;
-  }
-  return Impl::write(it->second.state, to_ros(state));
+  // A study first seen closed was finished before this service started: not part of the live view.
+  if (impl_->studies.count(state.study_id) == 0 && !domain::is_open(state.status)) return true;
+  return Impl::write(impl_->writers_of(state.study_id).state, to_ros(state));
 }
 
 bool Ros2View::publish_trial(const domain::TrialRecord& record) {
-  const auto it = impl_->studies.find(record.study_id);
-  if (it == impl_->studies.end()) return true;  // a study not in the view (see publish_state)
-  return Impl::write(it->second.trials, to_ros(record));
+  // A resumed study's trials may come before its first state.
+  return Impl::write(impl_->writers_of(record.study_id).trials, to_ros(record));
 }
 
 void Ros2View::retire_study(int study_id) { impl_->drop(study_id); }

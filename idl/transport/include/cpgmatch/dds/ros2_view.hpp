@@ -2,7 +2,7 @@
 // cpgmatch/*, again under ROS 2's names and types, so that `ros2 topic echo /cpgmatch/study_state` works:
 //
 //   rt/cpgmatch/study_state  cpgmatch_msgs::msg::dds_::StudyState_   reliable, transient local, KEEP_LAST 1
-//   rt/cpgmatch/trials       cpgmatch_msgs::msg::dds_::TrialRecord_  reliable, transient local, KEEP_LAST budget
+//   rt/cpgmatch/trials       cpgmatch_msgs::msg::dds_::TrialRecord_  reliable, transient local, KEEP_LAST 100000
 //   rt/cpgmatch/workers      cpgmatch_msgs::msg::dds_::Worker_       reliable, volatile, KEEP_LAST 16
 //
 // ROS 2 types are unkeyed: one DDS instance per topic. A single transient-local writer of KEEP_LAST 1 would
@@ -52,7 +52,7 @@ class Ros2View {
   static constexpr const char* kTrialsTopic = "rt/cpgmatch/trials";
   static constexpr const char* kWorkersTopic = "rt/cpgmatch/workers";
   static constexpr int kWorkersDepth = 16;
-  // Upper bound of a study's trials writer history (its budget, normally far less).
+  // A study's trials writer keeps this many (the largest budget a study file may ask for).
   static constexpr int kMaxTrialsDepth = 100000;
 
  private:
