@@ -200,8 +200,10 @@ std::unique_ptr<dds::Ros2View> make_ros2_view(dds::Participant& participant, boo
   try {
     return std::make_unique<dds::Ros2View>(participant, type_info);
   } catch (const std::exception& e) {
-    spdlog::warn("no ROS 2 view ({}): {}; the native cpgmatch/ topics are unaffected", dds::Ros2View::kStateTopic,
-                 e.what());
+    spdlog::warn("no ROS 2 view (rt/cpgmatch/*): {}{}; the native cpgmatch/ topics are unaffected", e.what(),
+                 dds::selected_enclave().empty() ? ""
+                                                 : " (DDS-Security: the permissions of a keystore made before the view "
+                                                   "do not name its topics; make a new one, docs/ros2.md)");
     return nullptr;
   }
 }

@@ -24,7 +24,8 @@ namespace {
 fdds::DataWriterQos view_qos(bool transient_local, int depth) {
   fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT;
   qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-  qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(0, 100000000);  // never stall the loop
+  // A slow ROS 2 subscriber holds the optimizer's event loop 100 ms at most per write (as topics.cpp's writers).
+  qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(0, 100000000);
   qos.durability().kind = transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
   qos.history().depth = depth;
@@ -39,11 +40,11 @@ fdds::DataWriterQos view_qos(bool transient_local, int depth) {
 fdds::Topic* make_topic(fdds::DomainParticipant* participant, fdds::TopicDataType* type, const char* name,
                         bool announce_types) {
   fdds::TypeSupport support(type);
-  // Announcing TypeInformation is opt-in (Ros2View::Options): Cyclone DDS 0.10 (rmw_cyclonedds) refuses Fast
+  // Announcing TypeInformation is opt-in (announce_types): Cyclone DDS 0.10 (rmw_cyclonedds) refuses Fast
   // DDS 2.9's TYPE_INFORMATION parameter and drops the writer, so ROS 2 nodes on Cyclone would see nothing.
-  // TypeObjects in discovery are never sent: Fast DDS 2.9 peers crash building a dynamic type from one
-  // with a sequence of structs (seen: every simulation worker on the domain, SIGSEGV in
-  // TypeObjectFactory::build_dynamic_type).
+  // TypeObjects in discovery are never sent: Fast DDS 2.9 peers crashed building a dynamic type from one (seen
+  // with a sequence of structs: every simulation worker on the domain, SIGSEGV in
+  // TypeObjectFactory::build_dynamic_type); the recorder fetches them by TypeLookup instead.
   support->auto_fill_type_information(announce_types);
   support->auto_fill_type_object(false);
   if (support.register_type(participant) != ReturnCode_t::RETCODE_OK) {
@@ -119,12 +120,20 @@ Ros2View::~Ros2View() {
 bool Ros2View::publish_state(const domain::StudyState& state) {
   // A study first seen closed was finished before this service started: not part of the live view.
   if (impl_->studies.count(state.study_id) == 0 && !domain::is_open(state.status)) return true;
-  return Impl::write(impl_->writers_of(state.study_id).state, to_ros(state));
+  try {
+    return Impl::write(impl_->writers_of(state.study_id).state, to_ros(state));
+  } catch (const std::runtime_error&) {
+    return false;  // no writer for it (the caller says so): the view never stops the service
+  }
 }
 
 bool Ros2View::publish_trial(const domain::TrialRecord& record) {
-  // A resumed study's trials may come before its first state.
-  return Impl::write(impl_->writers_of(record.study_id).trials, to_ros(record));
+  try {
+    // A resumed study's trials may come before its first state.
+    return Impl::write(impl_->writers_of(record.study_id).trials, to_ros(record));
+  } catch (const std::runtime_error&) {
+    return false;
+  }
 }
 
 void Ros2View::retire_study(int study_id) { impl_->drop(study_id); }
