@@ -120,7 +120,10 @@ void dispatch(Coordinator& coordinator, Event& event, dds::Ros2View* ros2, bool 
             }
           } else if constexpr (std::is_same_v<T, WorkerGone>) {
             coordinator.handle_worker_gone(e.key, now, e.disposed_by);
-            if (ros2 != nullptr && !ros2->worker_gone(e.key)) spdlog::warn("DDS write of a ROS 2 worker failed");
+            // A dispose counts only from the worker's own identity (disposed_by is set with DDS-Security only).
+            const bool shown = ros2 != nullptr && (!e.disposed_by || may_show_worker(secure, e.disposed_by,
+                                                                                     ros2->worker_id_of(e.key)));
+            if (shown && !ros2->worker_gone(e.key)) spdlog::warn("DDS write of a ROS 2 worker failed");
           }
         },
         event.sample);

@@ -3,10 +3,11 @@
  * made of the cpgmatch_msgs .msg files, on the topics ROS 2 maps /cpgmatch/... to (rt/cpgmatch/...), with the
  * QoS `ros2 topic echo` picks for a reliable, transient-local publisher.
  *   ros2_state_reader DOMAIN STUDY_ID MIN_COMPLETED TIMEOUT_S
- * Waits for a state of STUDY_ID with at least MIN_COMPLETED completed rollouts and for one of its trials, then
- * prints
+ * Waits for a state of STUDY_ID with at least MIN_COMPLETED completed rollouts, for one of its trials and for a
+ * worker, then prints
  *   state study ID status S completed C budget B name N type T
  *   trial study ID trial I outcome O cost X type T
+ *   worker ID kind K slots S alive A type T
  * where T is the type name the matched writer announced; exits 0. Exits 1 on timeout. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,12 +28,13 @@ static void matched_type(dds_entity_t reader, char* out, size_t size) {
   dds_builtintopic_free_endpoint(writer);
 }
 
-static dds_entity_t ros2_reader(dds_entity_t participant, const dds_topic_descriptor_t* type, const char* name) {
+static dds_entity_t ros2_reader(dds_entity_t participant, const dds_topic_descriptor_t* type, const char* name,
+                                dds_durability_kind_t durability) {
   const dds_entity_t topic = dds_create_topic(participant, type, name, NULL, NULL);
   if (topic < 0) return topic;
   dds_qos_t* qos = dds_create_qos();
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_durability(qos, durability);
   dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 100);
   const dds_entity_t reader = dds_create_reader(participant, topic, qos, NULL);
   dds_delete_qos(qos);
@@ -53,18 +55,22 @@ int main(int argc, char** argv) {
     fprintf(stderr, "dds_create_participant: %s\n", dds_strretcode(-participant));
     return 1;
   }
-  const dds_entity_t states =
-      ros2_reader(participant, &cpgmatch_msgs_msg_dds__StudyState__desc, "rt/cpgmatch/study_state");
-  const dds_entity_t trials =
-      ros2_reader(participant, &cpgmatch_msgs_msg_dds__TrialRecord__desc, "rt/cpgmatch/trials");
-  if (states < 0 || trials < 0) {
+  const dds_entity_t states = ros2_reader(participant, &cpgmatch_msgs_msg_dds__StudyState__desc,
+                                          "rt/cpgmatch/study_state", DDS_DURABILITY_TRANSIENT_LOCAL);
+  const dds_entity_t trials = ros2_reader(participant, &cpgmatch_msgs_msg_dds__TrialRecord__desc,
+                                          "rt/cpgmatch/trials", DDS_DURABILITY_TRANSIENT_LOCAL);
+  /* Workers are volatile (republished at each heartbeat): a transient-local reader would not match. */
+  const dds_entity_t workers = ros2_reader(participant, &cpgmatch_msgs_msg_dds__Worker__desc, "rt/cpgmatch/workers",
+                                           DDS_DURABILITY_VOLATILE);
+  if (states < 0 || trials < 0 || workers < 0) {
     fprintf(stderr, "cannot create the readers\n");
     return 1;
   }
-  char state_line[512] = "", trial_line[256] = "", type[256];
+  char state_line[512] = "", trial_line[256] = "", worker_line[256] = "", type[256];
   void* samples[16] = {NULL};
   dds_sample_info_t infos[16];
-  for (int tick = 0; tick < timeout_s * 10 && (state_line[0] == '\0' || trial_line[0] == '\0'); ++tick) {
+  for (int tick = 0; tick < timeout_s * 10 && (state_line[0] == '\0' || trial_line[0] == '\0' || worker_line[0] == '\0');
+       ++tick) {
     int n = dds_take(states, samples, infos, 16, 16);
     for (int i = 0; i < n; ++i) {
       const cpgmatch_msgs_msg_dds__StudyState_* s = (const cpgmatch_msgs_msg_dds__StudyState_*)samples[i];
@@ -85,14 +91,24 @@ int main(int argc, char** argv) {
       }
     }
     if (n > 0) dds_return_loan(trials, samples, n);
+    n = dds_take(workers, samples, infos, 16, 16);
+    for (int i = 0; i < n; ++i) {
+      const cpgmatch_msgs_msg_dds__Worker_* w = (const cpgmatch_msgs_msg_dds__Worker_*)samples[i];
+      if (infos[i].valid_data && worker_line[0] == '\0') {
+        matched_type(workers, type, sizeof type);
+        snprintf(worker_line, sizeof worker_line, "worker %s kind %u slots %u alive %d type %s", w->worker_id_,
+                 (unsigned)w->kind_, w->slots_, (int)w->alive_, type);
+      }
+    }
+    if (n > 0) dds_return_loan(workers, samples, n);
     dds_sleepfor(DDS_MSECS(100));
   }
   dds_delete(participant);
-  if (state_line[0] == '\0' || trial_line[0] == '\0') {
-    fprintf(stderr, "within %d s: %s / %s\n", timeout_s, state_line[0] ? state_line : "no state of the study",
-            trial_line[0] ? trial_line : "no trial of the study");
+  if (state_line[0] == '\0' || trial_line[0] == '\0' || worker_line[0] == '\0') {
+    fprintf(stderr, "within %d s: %s / %s / %s\n", timeout_s, state_line[0] ? state_line : "no state of the study",
+            trial_line[0] ? trial_line : "no trial of the study", worker_line[0] ? worker_line : "no worker");
     return 1;
   }
-  printf("%s\n%s\n", state_line, trial_line);
+  printf("%s\n%s\n%s\n", state_line, trial_line, worker_line);
   return 0;
 }

@@ -151,4 +151,9 @@ bool Ros2View::worker_gone(std::uint64_t worker_key) {
   return Impl::write(impl_->workers, to_ros(last, false));
 }
 
+std::string Ros2View::worker_id_of(std::uint64_t worker_key) const {
+  const auto it = impl_->last_heard.find(worker_key);
+  return it == impl_->last_heard.end() ? std::string() : it->second.worker_id;
+}
+
 }  // namespace cpgmatch::dds

@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 
 #include "cpgmatch/domain/study_state.hpp"
 #include "cpgmatch/domain/worker_announcement.hpp"
@@ -47,6 +48,8 @@ class Ros2View {
   bool publish_worker(const domain::WorkerAnnouncement& announcement);
   // A worker left or fell silent: its last announcement once more, with alive = false.
   bool worker_gone(std::uint64_t worker_key);
+  // The id of the worker last heard under `worker_key` ("" when none was).
+  std::string worker_id_of(std::uint64_t worker_key) const;
 
   static constexpr const char* kStateTopic = "rt/cpgmatch/study_state";
   static constexpr const char* kTrialsTopic = "rt/cpgmatch/trials";
