@@ -29,7 +29,7 @@
 # Roles: optimizer writes candidates, study state, trials and replies and reads reports, workers and
 # commands; worker reads candidates and emergency stops and writes reports and announcements; operator
 # submits and controls studies (and reads what it needs to follow them) and sends emergency stops; viewer
-# reads state, trials and workers only.
+# reads state, trials and workers only (natively and on the ROS 2 view's rt/cpgmatch/* topics).
 # Topic names are listed exactly, never as patterns: a '*' would have to match across '/'.
 set -euo pipefail
 
@@ -81,9 +81,13 @@ T=cpgmatch/trials K=cpgmatch/commands Y=cpgmatch/replies E=cpgmatch/estop P=cpgm
 # them; simulation workers have no reader). A viewer may not stop a robot.
 # Study specs: the optimizer publishes them, workers run them, and anyone who may read a study may read
 # what it computes.
-declare -A PUBLISH=([optimizer]="$C $S $T $Y $P" [worker]="$R $W" [operator]="$K $E" [viewer]="")
-declare -A SUBSCRIBE=([optimizer]="$R $W $K" [worker]="$C $E $P" [operator]="$Y $S $T $W $P" [viewer]="$S $T $W $P")
-ALL_TOPICS="$C $R $W $S $T $K $Y $E $P"
+# The ROS 2 view (docs/ros2.md): the optimizer republishes state, trials and workers under ROS 2's names;
+# whoever may read those natively may read them there.
+RS=rt/cpgmatch/study_state RT=rt/cpgmatch/trials RW=rt/cpgmatch/workers
+ROS2="$RS $RT $RW"
+declare -A PUBLISH=([optimizer]="$C $S $T $Y $P $ROS2" [worker]="$R $W" [operator]="$K $E" [viewer]="")
+declare -A SUBSCRIBE=([optimizer]="$R $W $K" [worker]="$C $E $P" [operator]="$Y $S $T $W $P $ROS2" [viewer]="$S $T $W $P $ROS2")
+ALL_TOPICS="$C $R $W $S $T $K $Y $E $P $ROS2"
 
 mkdir -p "$KEYSTORE"/{public,private,enclaves}
 chmod 700 "$KEYSTORE/private"

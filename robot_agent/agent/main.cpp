@@ -286,7 +286,7 @@ int main(int argc, char** argv) {
   Options o;
   app.add_option("--can", o.can_uri, "bus URI: socketcan:IFACE, udp:HOST:PORT or virtual:NAME")->required();
   app.add_option("--robot", o.robot_path, "robot YAML (default: configs/robot/morti.yaml)");
-  app.add_option("--domain", o.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
+  app.add_option("--domain", o.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else $ROS_DOMAIN_ID, else 0)");
   app.add_option("--id", o.id,
                  "worker id, unique on the domain (default: HOST-robot; with --keystore the certificate's CN, and an id "
                  "must be CN or CN/SUFFIX)");

@@ -28,8 +28,10 @@ void add_dds_flags(CLI::App& app, DdsFlags& flags, const std::string& default_en
                  "discovery servers IP:PORT[;IP:PORT...], the position being the server id "
                  "(default: $ROS_DISCOVERY_SERVER)");
   app.add_option("--keystore", flags.keystore,
-                 "DDS-Security keystore (deploy/make-study-pki.sh; default: $CPGMATCH_KEYSTORE, else no security)");
-  app.add_option("--enclave", flags.enclave, "identity in the keystore (default: " + default_enclave + ")");
+                 "DDS-Security keystore (deploy/make-study-pki.sh; default: $CPGMATCH_KEYSTORE, else "
+                 "$ROS_SECURITY_KEYSTORE when $ROS_SECURITY_ENABLE is true, else no security)");
+  app.add_option("--enclave", flags.enclave,
+                 "identity in the keystore (default: $ROS_SECURITY_ENCLAVE_OVERRIDE, else " + default_enclave + ")");
 }
 
 std::string profiles_file_for(const std::string& profile) {
@@ -46,11 +48,62 @@ void apply_dds_flags(const DdsFlags& flags) {
   if (!flags.profile.empty()) selection.profiles_file = profiles_file_for(flags.profile);
   selection.discovery_servers = flags.discovery_servers;
   dds::select_profile(selection);
+  const SecurityChoice choice = choose_security(flags);
   dds::SecuritySelection security;
-  security.keystore = flags.keystore;
-  if (const char* env = std::getenv("CPGMATCH_KEYSTORE"); security.keystore.empty() && env != nullptr) security.keystore = env;
-  security.enclave = flags.enclave.empty() ? flags.default_enclave : flags.enclave;
-  dds::select_security(security);
+  security.keystore = choice.keystore;
+  security.enclave = choice.enclave;
+  try {
+    dds::select_security(security);
+  } catch (const InputError& e) {
+    // A value that came from the environment: say which variable, or the user looks for a flag never given.
+    std::string from;
+    if (!choice.keystore_from.empty()) from = fmt::format("the keystore is ${}", choice.keystore_from);
+    if (!choice.enclave_from.empty()) {
+      from += fmt::format("{}the enclave is ${} ('{}')", from.empty() ? "" : ", ", choice.enclave_from,
+                          std::getenv(choice.enclave_from.c_str()));
+    }
+    if (from.empty()) throw;
+    throw InputError(fmt::format("{} ({})", e.what(), from));
+  }
+}
+
+namespace {
+
+const char* nonempty_env(const char* name) {
+  const char* value = std::getenv(name);
+  return value != nullptr && *value != '\0' ? value : nullptr;
+}
+
+}  // namespace
+
+SecurityChoice choose_security(const DdsFlags& flags) {
+  SecurityChoice c;
+  c.keystore = flags.keystore;
+  if (c.keystore.empty()) {
+    if (const char* env = nonempty_env("CPGMATCH_KEYSTORE")) {
+      c.keystore = env;
+      c.keystore_from = "CPGMATCH_KEYSTORE";
+    } else if (const char* ros = nonempty_env("ROS_SECURITY_KEYSTORE")) {
+      // As rcl: the keystore counts only with ROS_SECURITY_ENABLE=true, so a ROS 2 shell that merely names
+      // one does not switch security on.
+      const char* enable = std::getenv("ROS_SECURITY_ENABLE");
+      if (enable != nullptr && std::string(enable) == "true") {
+        c.keystore = ros;
+        c.keystore_from = "ROS_SECURITY_KEYSTORE";
+      }
+    }
+  }
+  c.enclave = flags.enclave;
+  if (c.enclave.empty()) {
+    if (const char* env = nonempty_env("ROS_SECURITY_ENCLAVE_OVERRIDE")) {
+      // ROS 2 enclaves are absolute paths ("/viewer"); ours are the folders under KEYSTORE/enclaves/.
+      c.enclave = env[0] == '/' ? env + 1 : env;
+      c.enclave_from = "ROS_SECURITY_ENCLAVE_OVERRIDE";
+    } else {
+      c.enclave = flags.default_enclave;
+    }
+  }
+  return c;
 }
 
 std::string resolve_worker_id(const std::string& id, const std::string& fallback) {

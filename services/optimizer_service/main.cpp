@@ -25,6 +25,7 @@
 #include "cpgmatch/dds/convert.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/participant.hpp"
+#include "cpgmatch/dds/ros2_view.hpp"
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
@@ -93,9 +94,15 @@ std::string describe(const Sample& sample) {
       sample);
 }
 
+// Whether a worker's sample may be shown on the ROS 2 view: with DDS-Security only from the identity that owns
+// its worker id (the coordinator's rule for counting it).
+bool may_show_worker(bool secure, const std::optional<std::string>& sender, const std::string& worker_id) {
+  return !secure || (sender && dds::worker_id_belongs_to(worker_id, *sender));
+}
+
 // Hands one sample to the coordinator. A store that cannot be written stops the service (the caller's
 // transaction rolls back, nothing unrecorded was acknowledged); any other error drops only this sample.
-void dispatch(Coordinator& coordinator, Event& event) {
+void dispatch(Coordinator& coordinator, Event& event, dds::Ros2View* ros2, bool secure) {
   const double now = monotonic_now_s();
   try {
     std::visit(
@@ -107,9 +114,18 @@ void dispatch(Coordinator& coordinator, Event& event) {
           } else if constexpr (std::is_same_v<T, From<msg::RolloutReport>>) {
             coordinator.handle_report(dds::from_wire(e.sample), now, e.sender);
           } else if constexpr (std::is_same_v<T, From<msg::WorkerAnnouncement>>) {
-            coordinator.handle_worker(dds::from_wire(e.sample), now, e.sender);
+            const domain::WorkerAnnouncement announcement = dds::from_wire(e.sample);
+            coordinator.handle_worker(announcement, now, e.sender);
+            if (ros2 != nullptr && may_show_worker(secure, e.sender, announcement.worker_id) &&
+                !ros2->publish_worker(announcement)) {
+              spdlog::warn("DDS write of a ROS 2 worker failed");
+            }
           } else if constexpr (std::is_same_v<T, WorkerGone>) {
             coordinator.handle_worker_gone(e.key, now, e.disposed ? WorkerExit::kLeft : WorkerExit::kLost, e.disposed_by);
+            // A dispose counts only from the worker's own identity (disposed_by is set with DDS-Security only).
+            const bool shown = ros2 != nullptr && (!e.disposed_by || may_show_worker(secure, e.disposed_by,
+                                                                                     ros2->worker_id_of(e.key)));
+            if (shown && !ros2->worker_gone(e.key)) spdlog::warn("DDS write of a ROS 2 worker failed");
           }
         },
         event.sample);
@@ -131,15 +147,25 @@ int default_model_threads() {
   return std::clamp(cores, 1, 16);
 }
 
-// Publishes what the coordinator decides.
+// Publishes what the coordinator decides, and the same again on the ROS 2 view when there is one.
 class DdsOutbox final : public Outbox {
  public:
-  explicit DdsOutbox(dds::Participant& p) : candidates_(p), trials_(p), states_(p), replies_(p), specs_(p) {}
+  DdsOutbox(dds::Participant& p, dds::Ros2View* ros2)
+      : candidates_(p), trials_(p), states_(p), replies_(p), specs_(p), ros2_(ros2) {}
   void send_candidate(const domain::Candidate& c) override { check(candidates_.write(dds::to_wire(c)), "candidate"); }
   void retire_candidate(const domain::Candidate& c) override { candidates_.unregister(dds::to_wire(c)); }
-  void publish_trial(const domain::TrialRecord& t) override { check(trials_.write(dds::to_wire(t)), "trial record"); }
-  void retire_trial(const domain::TrialRecord& t) override { trials_.unregister(dds::to_wire(t)); }
-  void publish_state(const domain::StudyState& s) override { check(states_.write(dds::to_wire(s)), "study state"); }
+  void publish_trial(const domain::TrialRecord& t) override {
+    check(trials_.write(dds::to_wire(t)), "trial record");
+    if (ros2_ != nullptr) check(ros2_->publish_trial(t), "ROS 2 trial record");
+  }
+  void retire_trial(const domain::TrialRecord& t) override {
+    trials_.unregister(dds::to_wire(t));
+    if (ros2_ != nullptr) ros2_->retire_study(t.study_id);
+  }
+  void publish_state(const domain::StudyState& s) override {
+    check(states_.write(dds::to_wire(s)), "study state");
+    if (ros2_ != nullptr) check(ros2_->publish_state(s), "ROS 2 study state");
+  }
   void reply(const domain::CommandReply& r) override { check(replies_.write(dds::to_wire(r)), "command reply"); }
   void publish_spec(const domain::SpecPublication& s) override { check(specs_.write(dds::to_wire(s)), "study spec"); }
   void retire_spec(const domain::SpecPublication& s) override { specs_.unregister(dds::to_wire(s)); }
@@ -169,10 +195,26 @@ class DdsOutbox final : public Outbox {
   dds::Writer<msg::StudyState> states_;
   dds::Writer<msg::CommandReply> replies_;
   dds::Writer<msg::StudySpecSample> specs_;
+  dds::Ros2View* ros2_;
 };
 
+// The ROS 2 view (docs/ros2.md), or nothing when it is off or cannot be created: it is a read-only mirror,
+// and an enclave of a keystore made before it existed may not publish rt/ topics; the service runs on.
+std::unique_ptr<dds::Ros2View> make_ros2_view(dds::Participant& participant, bool wanted, bool type_info) {
+  if (!wanted) return nullptr;
+  try {
+    return std::make_unique<dds::Ros2View>(participant, type_info);
+  } catch (const std::exception& e) {
+    spdlog::warn("no ROS 2 view (rt/cpgmatch/*): {}{}; the native cpgmatch/ topics are unaffected", e.what(),
+                 dds::selected_enclave().empty() ? ""
+                                                 : " (DDS-Security: the permissions of a keystore made before the view "
+                                                   "do not name its topics; make a new one, docs/ros2.md)");
+    return nullptr;
+  }
+}
+
 int run(int domain, const std::string& store_path, bool full_durability, double worker_timeout_s, bool localhost_only,
-        int model_threads, int acquisition_threads) {
+        int model_threads, int acquisition_threads, bool ros2_view, bool ros2_type_info) {
   dds::validate_domain(domain);
   if (worker_timeout_s <= 0.0) throw InputError("--worker-timeout must be > 0");
   if (model_threads < 1 || model_threads > 64) throw InputError("--model-threads must be in [1, 64]");
@@ -215,8 +257,10 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
   };
   dds_config.track_identities = secure;
   dds_config.on_identity_refused = [](const std::string& why) { spdlog::warn("{}", why); };
+  dds_config.serve_type_lookup = ros2_view && ros2_type_info;  // the ROS 2 view's types, for DDS Record & Replay
   dds::Participant participant(dds_config);
-  DdsOutbox dds_outbox(participant);
+  const std::unique_ptr<dds::Ros2View> ros2 = make_ros2_view(participant, ros2_view, ros2_type_info);
+  DdsOutbox dds_outbox(participant, ros2.get());
   DeferredOutbox outbox(dds_outbox);
   service::Coordinator coordinator(
       store, outbox, options, [](const std::string& m) { spdlog::info("{}", m); },
@@ -298,7 +342,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
           const auto chunk_start = Clock::now();
           queue_wait.add(seconds_between(events[first].arrived, chunk_start));
           while (last < events.size() && last - first < kMaxChunkEvents && Clock::now() - chunk_start < kMaxChunk) {
-            dispatch(coordinator, events[last++]);
+            dispatch(coordinator, events[last++], ros2.get(), secure);
           }
         }, PhaseTimes{&chunk_handling, &chunk_commit, &chunk_publish});
         // Handled = committed and its effects published.
@@ -348,12 +392,12 @@ int main(int argc, char** argv) {
   CLI::App app{"cpgmatch-optimizer: the central optimizer service (studies, candidates, reports over DDS)"};
   int domain = -1;
   std::string store = "cpgmatch-studies.db";
-  bool full_durability = false, localhost_only = false;
+  bool full_durability = false, localhost_only = false, no_ros2_view = false, ros2_type_info = false;
   double worker_timeout_s = 2.5;
   int model_threads = service::default_model_threads();
   int acquisition_threads = std::min(service::default_model_threads(), 2);
   std::string log_level = "info";
-  app.add_option("--domain", domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
+  app.add_option("--domain", domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else $ROS_DOMAIN_ID, else 0)");
   app.add_option("--store", store, "SQLite study store; created if missing, resumed if present")->capture_default_str();
   app.add_flag("--fsync", full_durability, "fsync every commit (survives power loss, not only a crash)");
   app.add_option("--worker-timeout", worker_timeout_s, "seconds without a heartbeat before a worker is dropped")
@@ -365,6 +409,11 @@ int main(int argc, char** argv) {
                  "threads one model job uses for its acquisition search (the same proposals for any number)")
       ->capture_default_str();
   app.add_flag("--localhost-only", localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
+  app.add_flag("--no-ros2-view", no_ros2_view,
+               "do not publish the ROS 2 view (rt/cpgmatch/study_state, trials, workers; docs/ros2.md)");
+  app.add_flag("--ros2-type-info", ros2_type_info,
+               "announce the ROS 2 view's types (XTypes TypeInformation, TypeLookup service) for eProsima DDS Record & "
+               "Replay; ROS 2 nodes on Cyclone DDS 0.10 then see no view (docs/ros2.md)");
   app.add_option("--log-level", log_level, "log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
@@ -389,6 +438,7 @@ int main(int argc, char** argv) {
     runtime::export_config_dir();
     runtime::apply_dds_flags(dds_flags);
     return service::run(domain >= 0 ? domain : cpgmatch::dds::default_domain(), store, full_durability,
-                        worker_timeout_s, localhost_only, model_threads, acquisition_threads);
+                        worker_timeout_s, localhost_only, model_threads, acquisition_threads, !no_ros2_view,
+                        ros2_type_info);
   });
 }

@@ -20,6 +20,8 @@ for f in "${EXES[@]/#/bin/}" share/cpgmatch/configs/robot/morti.yaml \
          share/cpgmatch/configs/params/default.yaml share/cpgmatch/configs/spaces/paper.yaml \
          share/cpgmatch/fastdds/local.xml share/cpgmatch/fastdds/cluster.xml share/cpgmatch/fastdds/udp-only.xml \
          share/cpgmatch/idl/cpgmatch_msgs.idl share/doc/cpgmatch/copyright share/doc/cpgmatch/CITATION.cff \
+         share/cpgmatch/idl/cpgmatch_ros2_msgs.idl share/cpgmatch/ros2/cpgmatch_msgs/package.xml \
+         share/cpgmatch/ros2/cpgmatch_msgs/CMakeLists.txt share/cpgmatch/ros2/cpgmatch_msgs/msg/StudyState.msg \
          lib/systemd/system/cpgmatch-optimizer.service lib/systemd/system/cpgmatch-sim-worker@.service \
          lib/systemd/system/cpgmatch-discovery.service; do
   [[ -e $PREFIX/$f ]] || fail "not installed: $f"

@@ -106,7 +106,7 @@ int ServiceFlags::resolved_domain() const {
 }
 
 void add_service_flags(CLI::App* cmd, ServiceFlags& f, const std::string& default_enclave) {
-  cmd->add_option("--domain", f.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
+  cmd->add_option("--domain", f.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else $ROS_DOMAIN_ID, else 0)");
   cmd->add_flag("--localhost-only", f.localhost_only, "UDP on 127.0.0.1 only (a private study on one machine)");
   cmd->add_option("--timeout", f.timeout_s, "seconds to wait for the optimizer")->capture_default_str();
   runtime::add_dds_flags(*cmd, f.dds, default_enclave);

@@ -198,6 +198,9 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
       if (active) unsetenv("CPGMATCH_KEYSTORE");
     }
   } unset_keystore{private_keys.has_value()};
+  // Each process of the run takes its own role's enclave: a ROS 2 shell's one-for-all override would make
+  // the optimizer, the workers and this client one identity, and the keystore's permissions refuse them.
+  unsetenv("ROS_SECURITY_ENCLAVE_OVERRIDE");
   const fs::path bin = fs::path(self_executable()).parent_path();
   const std::string d = std::to_string(domain);
   std::vector<std::unique_ptr<ChildProcess>> children;

@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
   worker::Options o;
   bool run_one = false;
   std::string log_level = "info";
-  app.add_option("--domain", o.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else 0)");
+  app.add_option("--domain", o.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else $ROS_DOMAIN_ID, else 0)");
   app.add_option("--slots", o.slots, "concurrent rollouts (default: number of cores)");
   app.add_option("--id", o.id,
                  "worker id, unique on the domain (default: HOST-PID; with --keystore the certificate's CN, and an id "

@@ -67,6 +67,7 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
   apply_discovery_servers(qos);
   apply_security(qos);
   qos.name(config.name);
+  if (config.serve_type_lookup) qos.wire_protocol().builtin.typelookup_config.use_server = true;
   if (config.localhost_only) {
     // UDP on 127.0.0.1 only, discovery by unicast to the well-known ports of the first 64 participant
     // ids on this host. No shared memory: after a SIGKILL its segments can be left half-owned, and a

@@ -6,8 +6,11 @@
 //                                      decides as usual ($FASTRTPS_DEFAULT_PROFILES_FILE, else defaults).
 //   --discovery-server IP:PORT[;...]   the discovery servers (same as $ROS_DISCOVERY_SERVER)
 //   --keystore DIR, --enclave NAME     DDS-Security: a keystore made by deploy/make-study-pki.sh (default
-//                                      $CPGMATCH_KEYSTORE; none: no security) and the identity in it
-//                                      (default per program: optimizer, worker, operator, viewer)
+//                                      $CPGMATCH_KEYSTORE, else ROS 2's $ROS_SECURITY_KEYSTORE if
+//                                      $ROS_SECURITY_ENABLE=true; none: no security) and the identity in it
+//                                      (default $ROS_SECURITY_ENCLAVE_OVERRIDE, else per program: optimizer,
+//                                      worker, operator, viewer)
+// Precedence everywhere: a flag, else a CPGMATCH_* variable, else a ROS_* variable (docs/ros2.md).
 #pragma once
 
 #include <string>
@@ -31,7 +34,18 @@ void add_dds_flags(CLI::App& app, DdsFlags& flags, const std::string& default_en
 // a path. InputError naming --dds-profile when it is neither.
 std::string profiles_file_for(const std::string& profile);
 
-// Exports the selection for this process and its children (see cpgmatch/dds/profile.hpp).
+// The keystore and enclave the flags and the environment select, and which variable each came from ("": a
+// flag or the program's default).
+struct SecurityChoice {
+  std::string keystore;  // empty: no security
+  std::string keystore_from;
+  std::string enclave;
+  std::string enclave_from;
+};
+SecurityChoice choose_security(const DdsFlags& flags);
+
+// Exports the selection for this process and its children (see cpgmatch/dds/profile.hpp). A bad keystore or
+// enclave is an InputError that names the variable it came from.
 void apply_dds_flags(const DdsFlags& flags);
 
 // The worker id of a simulation worker or robot agent, after apply_dds_flags. With DDS-Security the

@@ -51,6 +51,9 @@ struct ParticipantConfig {
   // Called (on a DDS thread) when a remote participant's announced identity is refused (see
   // authenticated_common_name), with its GUID prefix and the reason.
   std::function<void(const std::string& what)> on_identity_refused;
+  // Answer XTypes TypeLookup requests, so tools that discover types (DDS Record & Replay) can get the types
+  // of writers that announce TypeInformation (the ROS 2 view's, ros2_view.hpp).
+  bool serve_type_lookup = false;
 
   // The common case: a participant on `domain` called `name`, without callbacks or identity tracking.
   static ParticipantConfig basic(int domain, std::string name, bool localhost_only) {
