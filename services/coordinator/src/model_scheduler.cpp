@@ -225,7 +225,7 @@ void ModelScheduler::start_jobs(std::map<int, StudyRun>& studies, const std::vec
   }
   int new_budget = options_.max_new_points_per_tick;  // points asked for this tick, over all studies
   for (StudyRun* s : order) {
-    if (s->model_busy || !s->optimizer) continue;
+    if (s->model_busy || s->reopening || !s->optimizer) continue;
     if (s->hardware_optimizer) {
       const int usable = std::min(wanted[1], hardware_slots_for(*s));
       if (const auto kind = HardwareModelJob::due(*s, usable)) {
@@ -266,7 +266,11 @@ void ModelScheduler::start_job(std::map<int, StudyRun>& studies, StudyRun& s, in
   s.optimizer->set_threads(busy + 1 < std::max(options_.threads, 1) ? options_.acquisition_threads : 1);
   s.model_busy = true;
   s.asking = ask;
-  submit(s, std::move(*work));
+  submit(s, [work = std::move(*work), epoch = s.proposal_epoch]() {
+    ModelJobResult result = work();
+    result.epoch = epoch;
+    return result;
+  });
 }
 
 void ModelScheduler::submit(StudyRun& s, ModelWork work) {

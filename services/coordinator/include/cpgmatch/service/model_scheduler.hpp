@@ -39,6 +39,7 @@ namespace cpgmatch::service {
 struct ModelJobResult {
   int study_id = 0;
   int ask = 0;
+  int epoch = 0;  // the study's proposal_epoch when the job was made (its points are dropped if it changed)
   std::optional<std::pair<ModelSnapshot, nlohmann::json>> fitted;
   std::vector<Eigen::VectorXd> points;
   std::string error;
