@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <atomic>
+#include <future>
 #include <map>
 
 #include <fmt/format.h>
@@ -41,6 +43,14 @@ class SteeringTest : public CoordinatorFixture {
   SteeringTest() : CoordinatorFixture("steering") {}
 
  protected:
+  CoordinatorOptions options() override {
+    CoordinatorOptions o = CoordinatorFixture::options();
+    o.model_threads = model_threads_;
+    o.model_job_hook = [this](int) {
+      if (hold_) held_.wait();
+    };
+    return o;
+  }
   // A new store and coordinator: a second, independent study history in the same test.
   void fresh() {
     coordinator_.reset();
@@ -153,6 +163,9 @@ class SteeringTest : public CoordinatorFixture {
 
   int workers_ = 1;
   bool newest_first_ = false;
+  int model_threads_ = 0;          // 0: model jobs inline
+  std::atomic<bool> hold_{false};  // with model threads: jobs wait for held_ while set
+  std::shared_future<void> held_;
   Points issued_;
   std::map<int, domain::Candidate> outstanding_;
   std::size_t seen_ = 0;
@@ -200,6 +213,53 @@ TEST_F(SteeringTest, AStoppedStudyIsExtendedWithItsTrialsInFlightKeptByTheirWork
   EXPECT_EQ(store_->load(id)->state, "done");
   EXPECT_EQ(out_.states.back().completed, 15);  // 12 + 3
   EXPECT_EQ(issued_.size(), 15u);
+}
+
+TEST_F(SteeringTest, AnExtendSentWhileTheStudysModelJobRunsIsAnsweredOnceWhenTheJobHasFinished) {
+  // As in the service: model jobs on their own thread. The study's first job is held (a slow fit); an extend
+  // then cannot reopen the study under it: it waits for the job, and a re-sent command gets the one reply.
+  model_threads_ = 1;
+  std::promise<void> release;
+  held_ = release.get_future().share();
+  hold_ = true;
+  open();
+  const int id = start(study_yaml(6, 0));
+  ASSERT_EQ(coordinator_->model_jobs_outstanding(), 1);
+  ASSERT_TRUE(command(domain::CommandKind::kStop, id).ok);
+  const std::size_t replies = out_.replies.size();
+  domain::StudyCommand extend;
+  extend.correlation_id = 4242;
+  extend.client_id = "test";
+  extend.kind = domain::CommandKind::kExtend;
+  extend.study_id = id;
+  extend.added_trials = 3;
+  coordinator_->handle_command(extend, now_);
+  coordinator_->handle_command(extend, now_);  // re-sent: no reply arrived yet
+  coordinator_->tick(now_ += 0.01);
+  EXPECT_EQ(out_.replies.size(), replies);  // nothing answered while the job holds the model
+  hold_ = false;
+  release.set_value();
+  for (int i = 0; i < 10 && out_.replies.size() == replies; ++i) {
+    coordinator_->wait_for_models();
+    coordinator_->tick(now_ += 0.01);
+  }
+  ASSERT_EQ(out_.replies.size(), replies + 1);
+  EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
+  EXPECT_NE(out_.replies.back().message.find("budget 6 -> 9"), std::string::npos) << out_.replies.back().message;
+  EXPECT_EQ(store_->load(id)->state, "running");
+  // It runs its nine trials to the end (each answered, then the model jobs it starts waited for).
+  for (int round = 0; round < 100 && store_->load(id)->state != "done"; ++round) {
+    collect();
+    for (auto& [trial, c] : outstanding_) {
+      coordinator_->handle_report(test_support::completed_report(c, cost_of(c.parameters), domain::WorkerKind::kSimulation), now_);
+    }
+    outstanding_.clear();
+    coordinator_->tick(now_ += 0.01);
+    coordinator_->wait_for_models();
+    coordinator_->tick(now_ += 0.01);
+  }
+  EXPECT_EQ(store_->load(id)->state, "done");
+  EXPECT_EQ(issued_.size(), 9u);
 }
 
 TEST_F(SteeringTest, ExtendRefusesWhatItCannotContinue) {
