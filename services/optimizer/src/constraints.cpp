@@ -74,21 +74,21 @@ class Parser {
     return true;
   }
 
-  ExprPtr expression() {
-    ExprPtr left = term();
+  // One precedence level of left-associative binary operators over operands that `next` parses.
+  template <typename Next>
+  ExprPtr left_associative(const Next& next, char op1, Expr::Kind kind1, char op2, Expr::Kind kind2) {
+    ExprPtr left = next();
     for (;;) {
-      if (match_char('+')) left = make(Expr::Kind::kAdd, left, term());
-      else if (match_char('-')) left = make(Expr::Kind::kSubtract, left, term());
+      if (match_char(op1)) left = make(kind1, left, next());
+      else if (match_char(op2)) left = make(kind2, left, next());
       else return left;
     }
   }
+  ExprPtr expression() {
+    return left_associative([this] { return term(); }, '+', Expr::Kind::kAdd, '-', Expr::Kind::kSubtract);
+  }
   ExprPtr term() {
-    ExprPtr left = unary();
-    for (;;) {
-      if (match_char('*')) left = make(Expr::Kind::kMultiply, left, unary());
-      else if (match_char('/')) left = make(Expr::Kind::kDivide, left, unary());
-      else return left;
-    }
+    return left_associative([this] { return unary(); }, '*', Expr::Kind::kMultiply, '/', Expr::Kind::kDivide);
   }
   ExprPtr unary() {
     if (match_char('-')) return make(Expr::Kind::kNegate, unary());
