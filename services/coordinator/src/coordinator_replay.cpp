@@ -156,14 +156,16 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
   const std::optional<bo::ModelState> saved = saved_model_state(stored);
   if (s.config.lockstep > 0) {
     // Lockstep: the optimizer holds trials 0..T-1 in trial order, T = what its saved state was fitted on;
-    // the other reports wait in `untold` until an ask needs them, exactly as they would have. Never more
-    // than the next proposal (trial next_trial_id) may see, trials 0..next-N-1: a finished study's last job
-    // told every report, and an extended one (cpgmatch study extend) proposes on as if its budget had
-    // always been the larger one (its optimizer is then replayed up to there).
+    // the other reports wait in `untold` until an ask needs them, exactly as they would have. An open study
+    // holds no more than its next proposal (trial next_trial_id) may see, trials 0..next-N-1: a finished
+    // study's last job told every report, and once extended (cpgmatch study extend, which reopens it
+    // running) it proposes on as if its budget had always been the larger one, its optimizer replayed up
+    // to there. A finished one proposes nothing: it is restored whole (one factorisation, no replay).
     std::sort(done.begin(), done.end(),
               [](const study::StoredTrial* a, const study::StoredTrial* b) { return a->trial_id < b->trial_id; });
-    const std::size_t told = std::min(static_cast<std::size_t>(saved ? saved->observations : 0),
-                                      static_cast<std::size_t>(std::max(0, s.next_trial_id - s.config.lockstep)));
+    const std::size_t may_see = s.is_open() ? static_cast<std::size_t>(std::max(0, s.next_trial_id - s.config.lockstep))
+                                            : done.size();
+    const std::size_t told = std::min(static_cast<std::size_t>(saved ? saved->observations : 0), may_see);
     for (const auto* t : done) {
       if (t->trial_id == static_cast<int>(observations.size()) && observations.size() < told) {
         observations.push_back(stored_observation(*t));
