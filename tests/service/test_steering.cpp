@@ -141,6 +141,15 @@ class SteeringTest : public CoordinatorFixture {
     drive();
     ASSERT_EQ(store_->load(id)->state, "done");
     ASSERT_EQ(issued_.size(), static_cast<std::size_t>(first));
+    if (lockstep > 0) {
+      // The jobs after the last ask told every report; the state at that ask (trial first-1 proposed from
+      // trials 0..first-N-2) is saved with the final one, and the extension proposes on from it (one more
+      // tell) instead of replaying every report.
+      const nlohmann::json saved = store_->load(id)->model_state;
+      ASSERT_TRUE(saved.contains("proposal_state")) << saved.dump();
+      EXPECT_EQ(saved["proposal_state"]["observations"].get<int>(), first - lockstep - 1);
+      EXPECT_EQ(saved["observations"].get<int>(), first);
+    }
     if (restart_before_extend) restart();
     const domain::CommandReply reply = command(domain::CommandKind::kExtend, id, total - first);
     ASSERT_TRUE(reply.ok) << reply.message;

@@ -507,8 +507,11 @@ void Coordinator::apply_model_result(ModelJobResult result) {
     release_optimizer_if_done(*study);
     return;
   }
+  if (result.proposal_state) study->proposal_state = std::move(*result.proposal_state);
   if (result.fitted) {
-    store_.save_model_state(result.study_id, result.fitted->second);
+    nlohmann::json state = result.fitted->second;
+    if (!study->proposal_state.is_null()) state["proposal_state"] = study->proposal_state;
+    store_.save_model_state(result.study_id, state);
     study->model = std::move(result.fitted->first);
     study->dirty = true;
   }

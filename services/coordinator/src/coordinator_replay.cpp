@@ -25,17 +25,33 @@ std::optional<bo::ModelState> saved_model_state(const study::StoredStudy* stored
   }
 }
 
-// The saved state as it was after `n` observations, when the store has it: the state itself, or the state
-// of its latest fit when `n` is that fit's count (the tells after it changed nothing but the count: they
-// were the budget's last, which are never fitted). Nothing otherwise: the optimizer is replayed.
-std::optional<bo::ModelState> state_at(const std::optional<bo::ModelState>& saved, std::size_t n) {
-  if (!saved || n == 0) return std::nullopt;
-  if (static_cast<std::size_t>(saved->observations) == n) return saved;
-  if (saved->fitted_observations >= 0 && static_cast<std::size_t>(saved->fitted_observations) == n) {
+// The saved lockstep proposal state (StudyRun::proposal_state), when there is a usable one.
+std::optional<bo::ModelState> saved_proposal_state(const study::StoredStudy* stored) {
+  if (stored == nullptr || !stored->model_state.is_object() || !stored->model_state.contains("proposal_state")) {
+    return std::nullopt;
+  }
+  try {
+    return bo::model_state_from_json(stored->model_state.at("proposal_state"));
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+// The state to restore `n` observations from, when the store has one: the saved state itself; the state of
+// its latest fit when `n` is that fit's count (the tells after it changed nothing but the count: they were
+// the budget's last, which are never fitted); or a lockstep study's state at its latest ask, when it covers
+// at most `n` (restore() tells the rest one refit each, which is how lockstep tells them: a lockstep
+// optimizer after trials 0..n-1 is one and the same however it got there). Nothing: replay them all.
+std::optional<bo::ModelState> state_at(const std::optional<bo::ModelState>& saved,
+                                       const std::optional<bo::ModelState>& proposal, std::size_t n) {
+  if (n == 0) return std::nullopt;
+  if (saved && static_cast<std::size_t>(saved->observations) == n) return saved;
+  if (saved && saved->fitted_observations >= 0 && static_cast<std::size_t>(saved->fitted_observations) == n) {
     bo::ModelState at_fit = *saved;
     at_fit.observations = saved->fitted_observations;
     return at_fit;
   }
+  if (proposal && proposal->observations > 0 && static_cast<std::size_t>(proposal->observations) <= n) return proposal;
   return std::nullopt;
 }
 
@@ -154,6 +170,9 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
   });
   std::vector<bo::Observation> observations;
   const std::optional<bo::ModelState> saved = saved_model_state(stored);
+  // Lockstep only (null otherwise); kept with every later state the study saves.
+  const std::optional<bo::ModelState> proposal = s.config.lockstep > 0 ? saved_proposal_state(stored) : std::nullopt;
+  if (proposal) s.proposal_state = stored->model_state.at("proposal_state");
   if (s.config.lockstep > 0) {
     // Lockstep: the optimizer holds trials 0..T-1 in trial order, T = what its saved state was fitted on;
     // the other reports wait in `untold` until an ask needs them, exactly as they would have. An open study
@@ -200,7 +219,7 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
     }
   }
   s.optimizer = std::make_shared<bo::BayesianOptimizer>(
-      restored_optimizer(s, stored, state_at(saved, observations.size()), observations));
+      restored_optimizer(s, stored, state_at(saved, proposal, observations.size()), observations));
   s.model = ModelSnapshot::of(*s.optimizer, s.told_trials);
   // Hardware reports in the order they were counted, which is the order the hardware model was told them.
   std::stable_sort(hardware.begin(), hardware.end(), [](const study::StoredTrial* a, const study::StoredTrial* b) {

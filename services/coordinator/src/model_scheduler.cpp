@@ -134,6 +134,8 @@ std::optional<ModelWork> LockstepModel::prepare(StudyRun& s, int ask, const std:
         result.points.push_back(x);
         xs.push_back(x);
       }
+      // The state its last proposal saw: the jobs after the exploration's last ask tell every report beyond it.
+      if (ask > 0) result.proposal_state = bo::model_state_to_json(optimizer->model_state());
       while (told < told0 + static_cast<int>(tells.size())) tell_next();
       if (!tells.empty()) result.fitted = fitted_model(*optimizer, told_trials);
     } catch (const std::exception& e) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
 #include "cpgmatch/bo/hardware_optimizer.hpp"
 #include "cpgmatch/bo/optimizer.hpp"
@@ -89,6 +90,9 @@ struct StudyRun {
   // the queued gaits took, so its points are dropped (asking is pure: the next job proposes them again).
   int proposal_epoch = 0;
   bool reopening = false;                  // being extended: no model job may start (extend waits for the last)
+  // Lockstep: the optimizer's state at its latest ask (ModelJobResult::proposal_state),
+  // saved with every model state (key "proposal_state") so that an extension proposes on from it. Null: none.
+  nlohmann::json proposal_state;
   int next_trial_id = 0;
   int completed = 0, failed = 0, falls = 0, reissued = 0, consecutive_failures = 0;
   StudyStatus state = StudyStatus::kRunning;
