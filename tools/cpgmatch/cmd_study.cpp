@@ -59,6 +59,10 @@ void add_steering_commands(CLI::App* study) {
         ->required();
     add_service_flags(cmd, o->service, "operator");
     cmd->callback([o] {
+      constexpr std::size_t kMaxGaits = 64;  // StudyCommand.enqueue's bound on the wire
+      if (o->params.size() > kMaxGaits) {
+        throw InputError(fmt::format("--params: {} files, at most {} gaits per command", o->params.size(), kMaxGaits));
+      }
       std::vector<domain::EnqueuedGait> gaits;
       for (const auto& file : o->params) gaits.push_back(read_gait_file(file, file));
       runtime::apply_dds_flags(o->service.dds);
