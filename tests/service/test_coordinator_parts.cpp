@@ -139,9 +139,9 @@ TEST(Dispatcher, WritesAtMostTheTickCapStoresBeforeSendingAndKeepsHardwareSlotsF
 
 TEST(ReplyCache, AnswersARepeatedCommandAndForgetsTheOldestBeyondItsCapacity) {
   ReplyCache cache(2);
-  domain::StudyCommand a{1, "cli", domain::CommandKind::kSubmit, 0, "", ""};
-  domain::StudyCommand b{2, "cli", domain::CommandKind::kStop, 3, "", ""};
-  domain::StudyCommand c{1, "other", domain::CommandKind::kPause, 3, "", ""};  // same id, another client
+  domain::StudyCommand a{1, "cli", domain::CommandKind::kSubmit, 0, "", "", 0, {}};
+  domain::StudyCommand b{2, "cli", domain::CommandKind::kStop, 3, "", "", 0, {}};
+  domain::StudyCommand c{1, "other", domain::CommandKind::kPause, 3, "", "", 0, {}};  // same id, another client
   cache.remember(a, domain::CommandReply{1, "cli", true, 7, "study 7 accepted"});
   EXPECT_EQ(cache.find(a)->study_id, 7);
   EXPECT_FALSE(cache.find(c).has_value());

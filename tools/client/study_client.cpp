@@ -129,11 +129,29 @@ StudyClient::~StudyClient() {
   impl_->replies.reset();
 }
 
-CommandResult StudyClient::submit(const std::string& study_yaml, const std::string& source_name, double timeout_s) {
+CommandResult StudyClient::submit(const std::string& study_yaml, const std::string& source_name, double timeout_s,
+                                  const std::vector<domain::EnqueuedGait>& enqueue) {
   domain::StudyCommand c;
   c.kind = domain::CommandKind::kSubmit;
   c.study_yaml = study_yaml;
   c.source_name = source_name;
+  c.enqueue = enqueue;
+  return impl_->send(c, timeout_s);
+}
+
+CommandResult StudyClient::extend(int study_id, int added_trials, double timeout_s) {
+  domain::StudyCommand c;
+  c.kind = domain::CommandKind::kExtend;
+  c.study_id = study_id;
+  c.added_trials = added_trials;
+  return impl_->send(c, timeout_s);
+}
+
+CommandResult StudyClient::enqueue(int study_id, const std::vector<domain::EnqueuedGait>& gaits, double timeout_s) {
+  domain::StudyCommand c;
+  c.kind = domain::CommandKind::kEnqueue;
+  c.study_id = study_id;
+  c.enqueue = gaits;
   return impl_->send(c, timeout_s);
 }
 

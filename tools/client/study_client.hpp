@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cpgmatch/domain/command.hpp"
+
 namespace cpgmatch::client {
 
 struct CommandResult {
@@ -27,9 +29,15 @@ class StudyClient {
   StudyClient& operator=(const StudyClient&) = delete;
 
   // Both wait up to `timeout_s` for an optimizer and its reply; throw std::runtime_error when none answers.
-  CommandResult submit(const std::string& study_yaml, const std::string& source_name, double timeout_s);
+  // `enqueue`: the gaits of the study file's `enqueue:` files (the client reads them, the service cannot).
+  CommandResult submit(const std::string& study_yaml, const std::string& source_name, double timeout_s,
+                       const std::vector<domain::EnqueuedGait>& enqueue = {});
   // kind: pause | resume | stop
   CommandResult control(const std::string& kind, int study_id, double timeout_s);
+  // A stopped or finished study continues with `added_trials` more (docs/steering.md).
+  CommandResult extend(int study_id, int added_trials, double timeout_s);
+  // Known gaits run as the study's next trials.
+  CommandResult enqueue(int study_id, const std::vector<domain::EnqueuedGait>& gaits, double timeout_s);
 
   // True once an optimizer's state writer is matched; then waits `settle_s` for its history to arrive.
   bool wait_for_optimizer(double timeout_s, double settle_s = 1.0);

@@ -18,6 +18,7 @@
 
 #include "cpgmatch/study/study_config.hpp"
 #include "commands.hpp"
+#include "gait_files.hpp"
 #include "cpgmatch/study/study_spec.hpp"
 #include "cpgmatch/text.hpp"
 #include "cpgmatch/dds/domain.hpp"
@@ -152,8 +153,10 @@ void add_study_service_commands(CLI::App* study) {
       // Checked here first, with the same rules as the service: a bad file exits 2 at once, naming the
       // field and line, without waiting for an optimizer (which would refuse it the same way).
       (void)study::StudySpec::resolve(text, o->config, study::SpecDefaults::shipped());
+      // `enqueue:` files are read here, relative to the study file: the service receives their values.
+      const std::vector<domain::EnqueuedGait> gaits = read_enqueued_gaits(text, o->config);
       client::StudyClient c = connect(o->service);
-      const client::CommandResult r = c.submit(text, o->config, o->service.timeout_s);
+      const client::CommandResult r = c.submit(text, o->config, o->service.timeout_s, gaits);
       if (!r.ok) throw InputError(r.message);  // e.g. "study.yaml:4: budget: must be >= 1"
       if (!o->wait) {
         if (o->json) std::cout << json{{"study_id", r.study_id}, {"message", r.message}}.dump() << std::endl;

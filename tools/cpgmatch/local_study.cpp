@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "child_process.hpp"
+#include "gait_files.hpp"
 #include "private_keystore.hpp"
 #include "cpgmatch/runtime/domain_lease.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
@@ -124,6 +125,8 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
                                  "optimizer service with a robot agent on its domain (`cpgmatch study submit`)",
                                  opts.config_source, key));
   }
+  // Read before anything starts: a missing gait file exits 2 at once.
+  const std::vector<domain::EnqueuedGait> gaits = read_enqueued_gaits(opts.config_text, opts.config_source);
   if (opts.workers < 0) throw InputError("--workers must be >= 1");
   const int workers = opts.workers > 0 ? opts.workers : std::max(1u, std::thread::hardware_concurrency());
   result.workers = workers;
@@ -239,7 +242,7 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   runtime::apply_dds_flags(env_only);
   client::StudyClient client(domain, true, /*read_trials=*/true);
   const auto start = std::chrono::steady_clock::now();
-  const client::CommandResult submitted = client.submit(config_text, opts.config_source, 30.0);
+  const client::CommandResult submitted = client.submit(config_text, opts.config_source, 30.0, gaits);
   if (!submitted.ok) {
     stop_all();
     throw InputError(submitted.message);

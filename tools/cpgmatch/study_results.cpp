@@ -13,10 +13,11 @@ namespace {
 using nlohmann::json;
 
 // trials.jsonl keeps the shape it always had: one object per rollout, `result` null for a rollout
-// that could not run.
+// that could not run; `enqueued: true` on a gait queued by the study file's `enqueue` (docs/steering.md).
 json trial_line(const json& record) {
   const json& report = record["report"];
   json t{{"index", record["trial_id"]}, {"ok", report["ok"]}, {"params", record["params"]}};
+  if (record.value("enqueued", false)) t["enqueued"] = true;  // a queued known gait (only then: the shape stays)
   if (report["ok"].get<bool>()) {
     json result = report;
     result["params"] = record["params"];

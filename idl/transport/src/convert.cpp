@@ -122,6 +122,8 @@ msg::CommandKind to_wire(domain::CommandKind k) {
     case domain::CommandKind::kPause: return msg::COMMAND_PAUSE;
     case domain::CommandKind::kResume: return msg::COMMAND_RESUME;
     case domain::CommandKind::kStop: return msg::COMMAND_STOP;
+    case domain::CommandKind::kExtend: return msg::COMMAND_EXTEND;
+    case domain::CommandKind::kEnqueue: return msg::COMMAND_ENQUEUE;
   }
   return msg::COMMAND_STOP;
 }
@@ -318,6 +320,15 @@ msg::StudyCommand to_wire(const domain::StudyCommand& c) {
   w.study_id(u32(c.study_id));
   w.study_yaml(c.study_yaml);
   w.source_name(c.source_name.substr(0, 255));
+  w.added_trials(c.added_trials);
+  std::vector<msg::EnqueuedGait> gaits;
+  for (const auto& g : c.enqueue) {
+    msg::EnqueuedGait e;
+    e.source(g.source.substr(0, 255));
+    e.parameters(to_wire(g.parameters));
+    gaits.push_back(std::move(e));
+  }
+  w.enqueue(std::move(gaits));
   return w;
 }
 
@@ -325,13 +336,15 @@ domain::StudyCommand from_wire(const msg::StudyCommand& w) {
   domain::StudyCommand c;
   c.correlation_id = w.correlation_id();
   c.client_id = text(w.client_id());
-  c.kind = checked_enum<domain::CommandKind>(static_cast<int>(w.kind()), msg::COMMAND_STOP, "kind");
+  c.kind = checked_enum<domain::CommandKind>(static_cast<int>(w.kind()), msg::COMMAND_ENQUEUE, "kind");
   if (w.study_id() > static_cast<std::uint32_t>(std::numeric_limits<int>::max())) {
     throw WireError(fmt::format("study_id = {} is out of range", w.study_id()));
   }
   c.study_id = static_cast<int>(w.study_id());
   c.study_yaml = w.study_yaml();
   c.source_name = text(w.source_name());
+  c.added_trials = w.added_trials();
+  for (const auto& e : w.enqueue()) c.enqueue.push_back(domain::EnqueuedGait{text(e.source()), from_wire(e.parameters())});
   return c;
 }
 
@@ -422,6 +435,7 @@ msg::TrialRecord to_wire(const domain::TrialRecord& t) {
   w.initial(t.initial);
   w.parameters(to_wire(t.parameters));
   w.report(to_wire(t.report));
+  w.enqueued(t.enqueued);
   return w;
 }
 
@@ -432,6 +446,7 @@ domain::TrialRecord from_wire(const msg::TrialRecord& w) {
   t.initial = w.initial();
   t.parameters = from_wire(w.parameters());
   t.report = from_wire(w.report());
+  t.enqueued = w.enqueued();
   return t;
 }
 

@@ -121,6 +121,13 @@ void Coordinator::accept_submission(const domain::StudyCommand& command, const R
     return;
   }
   const auto& spec = resolved.spec;
+  std::vector<Eigen::VectorXd> queued;  // the study file's enqueue gaits, checked before anything is stored
+  if (auto why = enqueue_refusal(*spec, command.enqueue, spec->config().budget, queued)) {
+    reply.ok = false;
+    reply.message = *why;
+    warn_(fmt::format("submit from {} refused: {}", command.client_id, *why));
+    return;
+  }
   StudyRun s;
   s.spec = spec;
   s.config = spec->config();
@@ -132,6 +139,7 @@ void Coordinator::accept_submission(const domain::StudyCommand& command, const R
   info_(fmt::format("study {} '{}' submitted: budget {}, {} parameters", id, s.name, s.config.budget,
                     s.config.space.size()));
   open_study(std::move(s), nullptr, now_s);
+  enqueue_points(studies_.at(id), queued, command.enqueue);
   reply.ok = true;
   reply.study_id = id;
   reply.message = fmt::format("study {} '{}' accepted (spec {})", id, studies_.at(id).name, spec->sha256().substr(0, 16));
@@ -157,6 +165,10 @@ void Coordinator::handle_command(const domain::StudyCommand& command, double now
   if (const auto done = replies_.find(command)) {
     out_.reply(*done);  // a re-sent command: same answer, not a second execution
     return;
+  }
+  if (command.kind == domain::CommandKind::kExtend) return extend_study(command, now_s);
+  if (command.kind == domain::CommandKind::kEnqueue) {
+    return answer(command, [&](domain::CommandReply& reply) { enqueue_command(command, reply); });
   }
   if (command.kind == domain::CommandKind::kSubmit) {
     if (const auto too_big = oversized(command)) {
@@ -498,15 +510,20 @@ void Coordinator::apply_model_result(ModelJobResult result) {
     release_optimizer_if_done(*study);
     return;
   }
+  if (result.proposal_state) study->proposal_state = std::move(*result.proposal_state);
   if (result.fitted) {
-    store_.save_model_state(result.study_id, result.fitted->second);
+    nlohmann::json state = result.fitted->second;
+    if (!study->proposal_state.is_null()) state["proposal_state"] = study->proposal_state;
+    store_.save_model_state(result.study_id, state);
     study->model = std::move(result.fitted->first);
     study->dirty = true;
   }
   if (!result.error.empty()) {
     warn_(fmt::format("study {}: model job (tell, then ask({})) failed: {}", result.study_id, result.ask, result.error));
   }
-  study->proposed.insert(study->proposed.end(), result.points.begin(), result.points.end());
+  if (result.epoch == study->proposal_epoch) {  // else: numbered for trial ids enqueued gaits took since
+    study->proposed.insert(study->proposed.end(), result.points.begin(), result.points.end());
+  }
   release_optimizer_if_done(*study);  // a finished study reopened with untold reports kept it for this job
 }
 

@@ -13,16 +13,46 @@ namespace cpgmatch::service {
 
 namespace {
 
-// How many observations the study's saved model state was fitted on; nothing without a usable state
-// (restored_optimizer() then says why and replays every report).
-std::optional<int> saved_state_observations(const study::StoredStudy* stored) {
+// The study's saved model state; nothing without a usable one (the optimizer is then rebuilt by replaying
+// every report).
+std::optional<bo::ModelState> saved_model_state(const study::StoredStudy* stored) {
   if (stored == nullptr || !stored->model_state.is_object()) return std::nullopt;
   try {
-    const int n = bo::model_state_from_json(stored->model_state).observations;
-    return n >= 0 ? std::optional<int>(n) : std::nullopt;
+    bo::ModelState state = bo::model_state_from_json(stored->model_state);
+    return state.observations >= 0 ? std::optional<bo::ModelState>(std::move(state)) : std::nullopt;
   } catch (const std::exception&) {
     return std::nullopt;
   }
+}
+
+// The saved lockstep proposal state (StudyRun::proposal_state), when there is a usable one.
+std::optional<bo::ModelState> saved_proposal_state(const study::StoredStudy* stored) {
+  if (stored == nullptr || !stored->model_state.is_object() || !stored->model_state.contains("proposal_state")) {
+    return std::nullopt;
+  }
+  try {
+    return bo::model_state_from_json(stored->model_state.at("proposal_state"));
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+// The state to restore `n` observations from, when the store has one: the saved state itself; the state of
+// its latest fit when `n` is that fit's count (the tells after it changed nothing but the count: they were
+// the budget's last, which are never fitted); or a lockstep study's state at its latest ask, when it covers
+// at most `n` (restore() tells the rest one refit each, which is how lockstep tells them: a lockstep
+// optimizer after trials 0..n-1 is one and the same however it got there). Nothing: replay them all.
+std::optional<bo::ModelState> state_at(const std::optional<bo::ModelState>& saved,
+                                       const std::optional<bo::ModelState>& proposal, std::size_t n) {
+  if (n == 0) return std::nullopt;
+  if (saved && static_cast<std::size_t>(saved->observations) == n) return saved;
+  if (saved && saved->fitted_observations >= 0 && static_cast<std::size_t>(saved->fitted_observations) == n) {
+    bo::ModelState at_fit = *saved;
+    at_fit.observations = saved->fitted_observations;
+    return at_fit;
+  }
+  if (proposal && proposal->observations > 0 && static_cast<std::size_t>(proposal->observations) <= n) return proposal;
+  return std::nullopt;
 }
 
 // What the optimizer was told for a stored trial: its cost, or a failure; and whether it fell.
@@ -116,7 +146,9 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
       s.next_trial_id = std::max(s.next_trial_id, t.trial_id + 1);
       const bool validation = t.phase == "validation";
       const bool on_hardware = t.phase == "hardware";
+      const bool enqueued = t.phase == study::kPhaseEnqueued;
       if (validation) s.validation_started = true;
+      if (enqueued) s.enqueued_trials.insert(t.trial_id);
       if (t.status == study::TrialStatus::kDone) {
         (validation ? validated : on_hardware ? hardware : done).push_back(&t);
       } else {
@@ -124,6 +156,7 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
         // validation set or hardware proposal stored but never issued has no worker yet: it is issued, not
         // re-issued.
         InFlight f{t.x, t.attempt, "", 0.0, {}, validation, on_hardware};
+        f.enqueued = enqueued;
         if (!t.worker_id.empty()) f.issued_to[t.attempt] = t.worker_id;
         s.in_flight[t.trial_id] = std::move(f);
       }
@@ -136,12 +169,22 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
     return a->reported_at_s != b->reported_at_s ? a->reported_at_s < b->reported_at_s : a->trial_id < b->trial_id;
   });
   std::vector<bo::Observation> observations;
+  const std::optional<bo::ModelState> saved = saved_model_state(stored);
+  // Lockstep only (null otherwise); kept with every later state the study saves.
+  const std::optional<bo::ModelState> proposal = s.config.lockstep > 0 ? saved_proposal_state(stored) : std::nullopt;
+  if (proposal) s.proposal_state = stored->model_state.at("proposal_state");
   if (s.config.lockstep > 0) {
     // Lockstep: the optimizer holds trials 0..T-1 in trial order, T = what its saved state was fitted on;
-    // the other reports wait in `untold` until an ask needs them, exactly as they would have.
+    // the other reports wait in `untold` until an ask needs them, exactly as they would have. An open study
+    // holds no more than its next proposal (trial next_trial_id) may see, trials 0..next-N-1: a finished
+    // study's last job told every report, and once extended (cpgmatch study extend, which reopens it
+    // running) it proposes on as if its budget had always been the larger one, its optimizer replayed up
+    // to there. A finished one proposes nothing: it is restored whole (one factorisation, no replay).
     std::sort(done.begin(), done.end(),
               [](const study::StoredTrial* a, const study::StoredTrial* b) { return a->trial_id < b->trial_id; });
-    const auto told = static_cast<std::size_t>(saved_state_observations(stored).value_or(0));
+    const std::size_t may_see = s.is_open() ? static_cast<std::size_t>(std::max(0, s.next_trial_id - s.config.lockstep))
+                                            : done.size();
+    const std::size_t told = std::min(static_cast<std::size_t>(saved ? saved->observations : 0), may_see);
     for (const auto* t : done) {
       if (t->trial_id == static_cast<int>(observations.size()) && observations.size() < told) {
         observations.push_back(stored_observation(*t));
@@ -157,9 +200,15 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
     // would have (a finished study too: its last reports get a job of their own). Telling them here, one
     // refit each, kept a restart on 1000 results from serving for 7-9 s.
     // Without a usable state (or one covering more reports than stored) every report is replayed.
-    const std::optional<int> saved = saved_state_observations(stored);
-    const std::size_t told =
-        saved && static_cast<std::size_t>(*saved) <= done.size() ? static_cast<std::size_t>(*saved) : done.size();
+    std::size_t told = saved && static_cast<std::size_t>(saved->observations) <= done.size()
+                           ? static_cast<std::size_t>(saved->observations)
+                           : done.size();
+    // The state's last tells were not fitted (the budget's end: nobody would ask) and the budget is larger
+    // now (an extended study): they wait for the next job, which fits them as the larger budget's run did.
+    if (saved && saved->fitted_observations >= 0 && static_cast<std::size_t>(saved->fitted_observations) < told &&
+        static_cast<int>(told) < s.config.budget) {
+      told = static_cast<std::size_t>(saved->fitted_observations);
+    }
     for (std::size_t i = 0; i < done.size(); ++i) {
       if (i < told) {
         observations.push_back(stored_observation(*done[i]));
@@ -169,7 +218,8 @@ void Coordinator::open_study(StudyRun&& fresh, const study::StoredStudy* stored,
       }
     }
   }
-  s.optimizer = std::make_shared<bo::BayesianOptimizer>(restored_optimizer(s, stored, observations));
+  s.optimizer = std::make_shared<bo::BayesianOptimizer>(
+      restored_optimizer(s, stored, state_at(saved, proposal, observations.size()), observations));
   s.model = ModelSnapshot::of(*s.optimizer, s.told_trials);
   // Hardware reports in the order they were counted, which is the order the hardware model was told them.
   std::stable_sort(hardware.begin(), hardware.end(), [](const study::StoredTrial* a, const study::StoredTrial* b) {
@@ -263,16 +313,19 @@ void Coordinator::restore_hardware_model(StudyRun& s, const study::StoredStudy* 
 }
 
 bo::BayesianOptimizer Coordinator::restored_optimizer(const StudyRun& s, const study::StoredStudy* stored,
+                                                      const std::optional<bo::ModelState>& state,
                                                       const std::vector<bo::Observation>& observations) const {
   if (observations.empty()) return bo::BayesianOptimizer(s.config.space, s.config.optimizer);
-  if (stored != nullptr && stored->model_state.is_object()) {
+  if (state) {
     try {
-      return bo::BayesianOptimizer::restore(s.config.space, s.config.optimizer, observations,
-                                            bo::model_state_from_json(stored->model_state));
+      return bo::BayesianOptimizer::restore(s.config.space, s.config.optimizer, observations, *state);
     } catch (const std::exception& e) {
       warn_(fmt::format("study {}: saved model state unusable ({}); replaying {} observations instead", s.id, e.what(),
                         observations.size()));
     }
+  } else if (stored != nullptr && stored->model_state.is_object()) {
+    info_(fmt::format("study {}: no saved model state for its first {} observations; replaying them", s.id,
+                      observations.size()));
   } else {
     info_(fmt::format("study {}: no saved model state (older store); replaying {} observations", s.id,
                       observations.size()));

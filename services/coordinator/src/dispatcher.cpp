@@ -66,9 +66,9 @@ void Dispatcher::issue(StudyRun& study, int trial_id, PoolWorker& worker, double
   if (reissue) {
     ++f.attempt;
     store_.reissue(study.id, trial_id, f.attempt, worker.id, wall_now_());
-  } else if (f.hardware_only()) {
+  } else if (f.hardware_only() || f.enqueued) {
     // Stored without a worker (a validation set at the phase's start, a hardware proposal when the model
-    // made it): record who has it, so a restart after this point still accepts that worker's report.
+    // made it, a queued gait): record who has it, so a restart after this point still accepts its report.
     store_.reissue(study.id, trial_id, f.attempt, worker.id, wall_now_());
   }
   f.worker_id = worker.id;

@@ -134,6 +134,8 @@ std::optional<ModelWork> LockstepModel::prepare(StudyRun& s, int ask, const std:
         result.points.push_back(x);
         xs.push_back(x);
       }
+      // The state its last proposal saw: the jobs after the exploration's last ask tell every report beyond it.
+      if (ask > 0) result.proposal_state = bo::model_state_to_json(optimizer->model_state());
       while (told < told0 + static_cast<int>(tells.size())) tell_next();
       if (!tells.empty()) result.fitted = fitted_model(*optimizer, told_trials);
     } catch (const std::exception& e) {
@@ -225,7 +227,7 @@ void ModelScheduler::start_jobs(std::map<int, StudyRun>& studies, const std::vec
   }
   int new_budget = options_.max_new_points_per_tick;  // points asked for this tick, over all studies
   for (StudyRun* s : order) {
-    if (s->model_busy || !s->optimizer) continue;
+    if (s->model_busy || s->reopening || !s->optimizer) continue;
     if (s->hardware_optimizer) {
       const int usable = std::min(wanted[1], hardware_slots_for(*s));
       if (const auto kind = HardwareModelJob::due(*s, usable)) {
@@ -266,7 +268,11 @@ void ModelScheduler::start_job(std::map<int, StudyRun>& studies, StudyRun& s, in
   s.optimizer->set_threads(busy + 1 < std::max(options_.threads, 1) ? options_.acquisition_threads : 1);
   s.model_busy = true;
   s.asking = ask;
-  submit(s, std::move(*work));
+  submit(s, [work = std::move(*work), epoch = s.proposal_epoch]() {
+    ModelJobResult result = work();
+    result.epoch = epoch;
+    return result;
+  });
 }
 
 void ModelScheduler::submit(StudyRun& s, ModelWork work) {

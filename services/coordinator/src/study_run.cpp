@@ -152,7 +152,8 @@ domain::TrialRecord StudyRun::trial_record(int trial_id, const Eigen::VectorXd& 
   domain::TrialRecord t;
   t.study_id = id;
   t.trial_id = trial_id;
-  t.initial = trial_id < config.optimizer.initial_points;
+  t.enqueued = enqueued_trials.count(trial_id) > 0;
+  t.initial = !t.enqueued && trial_id < config.optimizer.initial_points;
   t.parameters = config.space.to_named(x);
   t.report = r;
   t.report.id.study_id = id;

@@ -206,6 +206,7 @@ nlohmann::json to_json(const TrialRecord& t) {
   return {{"study_id", t.study_id},
           {"trial_id", t.trial_id},
           {"initial", t.initial},
+          {"enqueued", t.enqueued},
           {"params", params_json(t.parameters)},
           {"report", to_json(t.report)}};
 }

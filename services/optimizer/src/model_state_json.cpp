@@ -22,6 +22,7 @@ nlohmann::json model_state_to_json(const ModelState& m) {
                       {"hyperparameters", to_vector(m.hyperparameters)},
                       {"hedge_gains", {m.hedge_gains[0], m.hedge_gains[1], m.hedge_gains[2]}}};
   if (m.have_fall_hyperparameters) j["fall_hyperparameters"] = to_vector(m.fall_hyperparameters);
+  if (m.fitted_observations >= 0) j["fitted_observations"] = m.fitted_observations;
   return j;
 }
 
@@ -29,6 +30,7 @@ ModelState model_state_from_json(const nlohmann::json& j) {
   ModelState m;
   m.observations = j.at("observations").get<int>();
   m.fits = j.at("fits").get<int>();
+  m.fitted_observations = j.value("fitted_observations", -1);  // absent in stores older than it
   m.have_hyperparameters = j.at("have_hyperparameters").get<bool>();
   m.hyperparameters = to_eigen(j.at("hyperparameters").get<std::vector<double>>());
   const auto gains = j.at("hedge_gains").get<std::vector<double>>();

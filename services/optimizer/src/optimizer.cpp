@@ -67,7 +67,7 @@ Eigen::Vector3d HedgeState::probabilities() const {
 BayesianOptimizer::BayesianOptimizer(SearchSpace space, OptimizerOptions options)
     : space_(std::move(space)), options_(options), gp_(options.gp), fall_(options.gp) {
   options_.validate();
-  design_ = make_initial_design(options_.initial_design, options_.initial_points, space_.size(), options_.seed);
+  design_ = feasible_design();
   hedge_.eta = options_.hedge_eta;
 }
 
@@ -174,6 +174,7 @@ void BayesianOptimizer::refit() {
   have_hyper_ = true;
   fit_fall_model(true);
   ++fits_;
+  fitted_observations_ = static_cast<int>(observations_.size());
 
   // gp_hedge: reward each acquisition by minus the new model's mean at its previous proposal
   // (in objective units, never reset or decayed: scikit-optimize's semantics).
@@ -269,8 +270,12 @@ BayesianOptimizer::Candidates BayesianOptimizer::draw_candidates(std::mt19937_64
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   Candidates c;
   c.C.resize(d, m);
-  for (int j = 0; j < m; ++j)
-    for (int i = 0; i < d; ++i) c.C(i, j) = unit(rng);
+  if (constrained()) {
+    for (int j = 0; j < m; ++j) c.C.col(j) = random_unit_point(rng);
+  } else {
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < d; ++i) c.C(i, j) = unit(rng);
+  }
   compute_posterior(c);
   c.p_safe = fall_.probability_safe_many(c.C);  // all 1 while there is no fall model; lies do not change it
   return c;
@@ -379,7 +384,13 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::refine_acquisitions(const std::v
       const Eigen::Map<const Eigen::VectorXd> u(x.data(), d);
       value = score_at(a, gp_.predict(u), fall_.probability_safe(u));
     }
-    refined[static_cast<std::size_t>(task)] = {Eigen::Map<Eigen::VectorXd>(x.data(), d), value};
+    Eigen::VectorXd end = Eigen::Map<Eigen::VectorXd>(x.data(), d).cwiseMax(0.0).cwiseMin(1.0);
+    if (!feasible_unit(end)) {
+      // L-BFGS knows the box only: a refinement that left the feasible region stops at its boundary.
+      end = feasible_towards(start, end);
+      value = score_at(a, gp_.predict(end), fall_.probability_safe(end));
+    }
+    refined[static_cast<std::size_t>(task)] = {end, value};
   });
 
   std::vector<Eigen::VectorXd> proposals;
@@ -405,6 +416,48 @@ bool BayesianOptimizer::is_duplicate(const Eigen::VectorXd& u, const Eigen::Matr
   return false;
 }
 
+Eigen::VectorXd BayesianOptimizer::random_unit_point(std::mt19937_64& rng) const {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  Eigen::VectorXd u(space_.size());
+  // Rejection: a constraint set that leaves less than 1e-5 of the box is refused rather than searched.
+  constexpr int kMaxDraws = 100'000;
+  for (int draw = 0; draw < kMaxDraws; ++draw) {
+    for (int i = 0; i < u.size(); ++i) u[i] = unit(rng);
+    if (feasible_unit(u)) return u;
+  }
+  throw InputError(fmt::format("constraints: no feasible point in {} random draws; the constraints leave (almost) "
+                               "nothing of the search space",
+                               kMaxDraws));
+}
+
+Eigen::MatrixXd BayesianOptimizer::feasible_design() const {
+  const int n = options_.initial_points, d = space_.size();
+  if (!constrained()) return make_initial_design(options_.initial_design, n, d, options_.seed);
+  // A longer design of the same kind, its infeasible points dropped, in order: the design's own spread
+  // over what is left of the box (deterministic in the seed).
+  for (long m = n; m <= 4096L * n; m *= 2) {
+    const Eigen::MatrixXd all = make_initial_design(options_.initial_design, static_cast<int>(m), d, options_.seed);
+    Eigen::MatrixXd kept(n, d);
+    int k = 0;
+    for (int r = 0; r < all.rows() && k < n; ++r) {
+      if (feasible_unit(all.row(r).transpose())) kept.row(k++) = all.row(r);
+    }
+    if (k == n) return kept;
+  }
+  throw InputError(fmt::format("constraints: fewer than {} feasible points among {} of the initial design; the "
+                               "constraints leave (almost) nothing of the search space",
+                               n, 4096L * n));
+}
+
+Eigen::VectorXd BayesianOptimizer::feasible_towards(const Eigen::VectorXd& inside, const Eigen::VectorXd& outside) const {
+  double lo = 0.0, hi = 1.0;  // inside + t (outside - inside) is feasible at lo, not at hi
+  for (int step = 0; step < 30; ++step) {
+    const double mid = 0.5 * (lo + hi);
+    (feasible_unit(inside + mid * (outside - inside)) ? lo : hi) = mid;
+  }
+  return inside + lo * (outside - inside);
+}
+
 std::vector<Eigen::VectorXd> BayesianOptimizer::ask(int n, const std::vector<Eigen::VectorXd>& pending) {
   if (n < 0) throw InputError("ask: n must be >= 0");
   for (const auto& p : pending) space_.check_point(p);
@@ -422,12 +475,7 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask(int n, const std::vector<Eig
   if (!model_ready()) {
     // Design exhausted by in-flight points but too few results for a model: seeded random points.
     auto rng = rng_for(issued, kAskPurpose);
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    while (static_cast<int>(out.size()) < n) {
-      Eigen::VectorXd u(space_.size());
-      for (int i = 0; i < u.size(); ++i) u[i] = unit(rng);
-      out.push_back(space_.from_unit(u));
-    }
+    while (static_cast<int>(out.size()) < n) out.push_back(space_.from_unit(random_unit_point(rng)));
     return out;
   }
   const auto more = ask_model(n - static_cast<int>(out.size()), busy, issued);
@@ -478,9 +526,7 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::ask_model(int n, const std::vect
       if (!candidates) candidates = draw_candidates(rng);
       u = refine_acquisitions({a}, data.y.minCoeff(), *candidates).front();
     }
-    if (is_duplicate(u, data.X)) {
-      for (int i = 0; i < u.size(); ++i) u[i] = unit(rng);
-    }
+    if (is_duplicate(u, data.X)) u = random_unit_point(rng);
     out.push_back(space_.from_unit(u));
     append(u);
     if (k + 1 < n) {
@@ -511,6 +557,7 @@ ModelState BayesianOptimizer::model_state() const {
   s.have_hyperparameters = have_hyper_;
   if (have_hyper_) s.hyperparameters = last_hyper_.pack();
   s.hedge_gains = hedge_.gains;
+  s.fitted_observations = fitted_observations_;
   s.have_fall_hyperparameters = have_fall_hyper_;
   if (have_fall_hyper_) s.fall_hyperparameters = last_fall_hyper_.pack();
   return s;
@@ -532,6 +579,7 @@ BayesianOptimizer BayesianOptimizer::restore(SearchSpace space, OptimizerOptions
     opt.observations_.push_back(observations[i]);  // no refit: the state says what the fits gave
   }
   opt.fits_ = state.fits;
+  opt.fitted_observations_ = state.fitted_observations >= 0 ? state.fitted_observations : state.observations;
   opt.have_hyper_ = state.have_hyperparameters;
   if (opt.have_hyper_) opt.last_hyper_ = GpHyperparameters::unpack(state.hyperparameters);
   opt.hedge_.gains = state.hedge_gains;

@@ -2,6 +2,9 @@
 #include "cpgmatch/study/study_file_keys.hpp"
 
 #include <algorithm>
+#include <set>
+
+#include <yaml-cpp/yaml.h>
 
 #include <fmt/format.h>
 
@@ -29,6 +32,13 @@ std::string to_string(HardwareStrategy s) {
   return "none";
 }
 
+void bind_constraints(StudyConfig& config, const std::map<std::string, double>& base_parameters) {
+  config.optimizer.constraints =
+      config.constraints.empty()
+          ? nullptr
+          : std::make_shared<const bo::ParameterConstraints>(config.constraints, config.space, base_parameters);
+}
+
 StudyConfig load_study_config(const std::string& path) { return parse(YamlReader::from_file(path)); }
 
 StudyConfig load_study_config_text(const std::string& text, const std::string& source_name) {
@@ -43,6 +53,46 @@ namespace {
 constexpr std::size_t kMaxStudyNameBytes = 64;
 constexpr int kMaxBudget = 100'000;
 constexpr double kMaxRolloutPartS = 3600.0;  // entrainment or evaluation, seconds
+
+// A study key that is a list of strings (`constraints`, `enqueue`): each with its own line for errors.
+template <typename Each>
+void for_each_string(const YamlReader& r, const std::string& key, const Each& each) {
+  if (!r.has(key)) return;
+  const YAML::Node list = r.node()[key];
+  if (!list.IsSequence()) r.fail(key, "must be a list of strings, e.g. [\"a\", \"b\"]");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const YAML::Node item = list[i];
+    const std::string where = item.Mark().line >= 0 ? fmt::format("{}:{}", r.source(), item.Mark().line + 1) : r.source();
+    if (!item.IsScalar()) {
+      throw InputError(fmt::format("{}: field '{}[{}]': must be a string", where, r.field(key), i));
+    }
+    each(i, item.Scalar(), where);
+  }
+}
+
+// `constraints: [...]`: parsed once here, with every CPG parameter name known (a fixed or base parameter
+// takes its value in the study). Needs the space parsed: a constraint on no searched parameter is refused.
+void parse_constraints(const YamlReader& r, StudyConfig& s) {
+  std::set<std::string> known;
+  for (const auto& info : parameter_table()) known.insert(std::string(info.name));
+  constexpr std::size_t kMaxConstraints = 64;
+  for_each_string(r, "constraints", [&](std::size_t i, const std::string& text, const std::string& where) {
+    const std::string field = fmt::format("{}[{}]", r.field("constraints"), i);
+    if (i >= kMaxConstraints) throw InputError(fmt::format("{}: field '{}': more than {} constraints", where, field, kMaxConstraints));
+    if (text.size() > 1024) throw InputError(fmt::format("{}: field '{}': longer than 1024 characters", where, field));
+    try {
+      s.constraints.push_back(bo::Constraint::parse(text, known));
+    } catch (const bo::ConstraintSyntaxError& e) {
+      throw InputError(fmt::format("{}: field '{}': {} of \"{}\"", where, field, e.what(), text));
+    }
+    const auto& names = s.constraints.back().names();
+    if (std::none_of(names.begin(), names.end(), [&](const std::string& n) { return s.space.index_of(n) >= 0; })) {
+      throw InputError(fmt::format("{}: field '{}': \"{}\" uses no searched parameter: it is true or false for "
+                                   "every trial (constrain a searched one, or change the fixed values)",
+                                   where, field, text));
+    }
+  });
+}
 
 // `hardware: {strategy, budget, ...}` (study_config.hpp, HardwareConfig). Needs budget, initial_points,
 // lockstep, explore_on and validation already parsed.
@@ -192,6 +242,14 @@ StudyConfig parse(const YamlReader& r) {
       r.fail("fixed", e.what());
     }
   }
+  parse_constraints(r, s);
+  for_each_string(r, "enqueue", [&](std::size_t i, const std::string& file, const std::string& where) {
+    if (file.empty() || i >= 64) {
+      throw InputError(fmt::format("{}: field '{}[{}]': {}", where, r.field("enqueue"), i,
+                                   file.empty() ? "an empty file name" : "more than 64 gaits"));
+    }
+    s.enqueue_files.push_back(file);
+  });
   return s;
 }
 

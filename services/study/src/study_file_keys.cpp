@@ -74,6 +74,15 @@ constexpr std::array kKeys{
     StudyFileKey{"hardware.spread", "0..1", "0.10", "validate: the relative spread of the sets around the best."},
     StudyFileKey{"validation", "mapping {hardware_sets, spread}", "",
                  "The older spelling of hardware: {strategy: validate, budget, spread}."},
+    StudyFileKey{"constraints", "list of at most 64 inequalities", "",
+                 "Parameter constraints, each an inequality over the CPG parameters (numbers, parameter names, + - * /, "
+                 "parentheses, one <= or >=), e.g. \"hip_offset + hip_amplitude * (1 + overswing) <= 1.33\". Fixed "
+                 "and base parameters take their study values. The initial design and the acquisition search never "
+                 "propose a point that breaks one; they are part of the spec's hash (docs/steering.md)."},
+    StudyFileKey{"enqueue", "list of at most 64 parameter files", "",
+                 "Known gaits to run first (parameter files like configs/params/default.yaml, relative to the study "
+                 "file), as Optuna's enqueue_trial: they count in the budget and the model learns from them. "
+                 "cpgmatch study enqueue ID --params F.yaml queues more into an open or stopped study."},
     StudyFileKey{"model", "mapping", "configs/model/morti.yaml",
                  "Overrides of single values of the robot model (e.g. {knee_spring: {stiffness_nm_per_rad: 20}}). "
                  "The study's spec holds the whole resolved model."},

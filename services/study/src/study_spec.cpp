@@ -178,6 +178,8 @@ nlohmann::json study_section(const YAML::Node& root) {
   for (const auto& entry : root) {
     const std::string key = entry.first.Scalar();
     if (key == "model" || key == "rollout_settings" || key == "base_parameters") continue;
+    // Enqueued gaits are trials of the study (stored with their values, phase "enqueued"), not its objective.
+    if (key == "enqueue") continue;
     if (kTextKeys.count(key) > 0 && entry.second.IsScalar()) {
       study[key] = entry.second.Scalar();
     } else {
@@ -312,6 +314,7 @@ StudySpec::StudySpec(nlohmann::json tree, const std::string& source_name) : tree
   settings_.entrain_s = config_.entrain_s;
   settings_.eval_s = config_.eval_s;
   base_parameters_ = parse_parameters(reader_of(tree_[kBaseParameters], source_name + " (base_parameters)"));
+  bind_constraints(config_, to_map(base_parameters_));  // fixed and base parameters take their values
 }
 
 std::string StudySpec::to_study_yaml() const {

@@ -39,10 +39,11 @@ std::string outcome_of(const study::StoredTrial& t) {
   return t.report.is_object() && t.report.value("fell", false) ? "fell" : "completed";
 }
 
-// Where the point came from: the random initial design, the model's proposal, or a hardware validation set
-// around the answer (never told to the model).
+// Where the point came from: the random initial design, the model's proposal, a hardware validation set
+// around the answer (never told to the model), or a known gait a user queued (`enqueue`, told as any trial).
 std::string source_of(const study::StoredTrial& t, int initial_points) {
   if (t.phase == "validation") return "validation";
+  if (t.phase == study::kPhaseEnqueued) return "enqueued";
   return t.trial_id < initial_points ? "initial_design" : "model";
 }
 

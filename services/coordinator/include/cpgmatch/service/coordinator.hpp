@@ -235,7 +235,9 @@ class Coordinator {
   void apply_hardware_result(StudyRun& study, ModelJobResult result);
   // The study's optimizer from its stored observations: restored from the saved model state (one
   // factorisation), or replayed observation by observation when there is none.
+  // `state`: the saved state at observations.size(), when the store has one (nothing: replay them all).
   bo::BayesianOptimizer restored_optimizer(const StudyRun& study, const study::StoredStudy* stored,
+                                           const std::optional<bo::ModelState>& state,
                                            const std::vector<bo::Observation>& observations) const;
   // A transfer or multi_fidelity study's hardware model from the optimizer's simulated observations (in the
   // order told) and its stored hardware reports (in the order counted), with its saved state.
@@ -248,6 +250,23 @@ class Coordinator {
   void retire_finished(StudyRun& study, double now_s);
   // A finished model job's result, on the event thread: its model state stored, its points queued.
   void apply_model_result(ModelJobResult result);
+
+  // Steering a study as Optuna users can (coordinator_steering.cpp, docs/steering.md).
+  // `study extend`: a stopped or finished study continues with more trials, reopened from the store exactly
+  // as a restart reopens it. Answered at once, or when the study's running model job has finished.
+  void extend_study(const domain::StudyCommand& command, double now_s);
+  std::optional<std::string> extend_refusal(const domain::StudyCommand& command);  // why not, or nothing
+  void extend_now(const domain::StudyCommand& command, double now_s, domain::CommandReply& reply);
+  // `study enqueue`: known gaits as the study's next trials.
+  void enqueue_command(const domain::StudyCommand& command, domain::CommandReply& reply);
+  // Why `gaits` cannot be queued in a study of `spec` with room for `room` more trials, or nothing (their
+  // points then in `points`).
+  static std::optional<std::string> enqueue_refusal(const study::StudySpec& spec,
+                                                    const std::vector<domain::EnqueuedGait>& gaits, int room,
+                                                    std::vector<Eigen::VectorXd>& points);
+  // Stores the points as the study's next trials (phase enqueued, no worker yet); returns their trial ids.
+  std::vector<int> enqueue_points(StudyRun& study, const std::vector<Eigen::VectorXd>& points,
+                                  const std::vector<domain::EnqueuedGait>& gaits);
 
   study::StudyStore& store_;
   Outbox& out_;

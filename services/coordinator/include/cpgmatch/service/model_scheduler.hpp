@@ -39,6 +39,11 @@ namespace cpgmatch::service {
 struct ModelJobResult {
   int study_id = 0;
   int ask = 0;
+  int epoch = 0;  // the study's proposal_epoch when the job was made (its points are dropped if it changed)
+  // A lockstep job that asked: the optimizer's state at its last ask. The jobs after the exploration's last
+  // ask tell every report beyond it; an extended study proposes on from this state (coordinator_replay.cpp)
+  // instead of replaying its reports.
+  std::optional<nlohmann::json> proposal_state;
   std::optional<std::pair<ModelSnapshot, nlohmann::json>> fitted;
   std::vector<Eigen::VectorXd> points;
   std::string error;

@@ -9,11 +9,13 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
 #include "cpgmatch/bo/hardware_optimizer.hpp"
 #include "cpgmatch/bo/optimizer.hpp"
@@ -39,6 +41,7 @@ struct InFlight {
   std::map<int, std::string> issued_to;
   bool validation = false;  // a validation set (hardware only, never told to the optimizer)
   bool hardware = false;    // a hardware proposal (hardware only, told to the study's hardware model)
+  bool enqueued = false;    // a queued known gait (exploration: told, counted); stored before any worker has it
   bool hardware_only() const { return validation || hardware; }
 };
 
@@ -82,6 +85,14 @@ struct StudyRun {
   std::deque<Eigen::VectorXd> proposed;    // asked for, not yet stored and issued
   std::map<int, InFlight> in_flight;       // by trial id
   std::vector<int> told_trials;            // trial id of each optimizer observation, in the order told
+  std::set<int> enqueued_trials;           // trials that are queued known gaits (`enqueue`), not proposals
+  // Bumped when trials are enqueued: a model job started before brings points numbered for trial ids that
+  // the queued gaits took, so its points are dropped (asking is pure: the next job proposes them again).
+  int proposal_epoch = 0;
+  bool reopening = false;                  // being extended: no model job may start (extend waits for the last)
+  // Lockstep: the optimizer's state at its latest ask (ModelJobResult::proposal_state),
+  // saved with every model state (key "proposal_state") so that an extension proposes on from it. Null: none.
+  nlohmann::json proposal_state;
   int next_trial_id = 0;
   int completed = 0, failed = 0, falls = 0, reissued = 0, consecutive_failures = 0;
   StudyStatus state = StudyStatus::kRunning;

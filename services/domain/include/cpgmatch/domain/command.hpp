@@ -3,11 +3,22 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
+#include <vector>
 
 namespace cpgmatch::domain {
 
-enum class CommandKind { kSubmit, kPause, kResume, kStop };
+// kExtend: a stopped or finished study continues with `added_trials` more (docs/steering.md).
+// kEnqueue: `enqueue` gaits run as the study's next trials (Optuna's enqueue_trial).
+enum class CommandKind { kSubmit, kPause, kResume, kStop, kExtend, kEnqueue };
+
+// A known gait to run as a trial of the study: its parameter values (SI units) as a parameter file gives
+// them, and that file's name for messages and the trial's record.
+struct EnqueuedGait {
+  std::string source;
+  std::map<std::string, double> parameters;
+};
 
 struct StudyCommand {
   std::uint64_t correlation_id = 0;
@@ -16,6 +27,9 @@ struct StudyCommand {
   int study_id = 0;         // pause / resume / stop
   std::string study_yaml;   // submit: the study file's text
   std::string source_name;  // submit: the file's name, for error messages
+  int added_trials = 0;     // extend: trials added to the budget
+  // submit: the gaits of the study file's `enqueue:` files, in its order; enqueue: the gaits to queue.
+  std::vector<EnqueuedGait> enqueue;
 };
 
 struct CommandReply {

@@ -47,6 +47,7 @@ struct TrialRecord {
   int study_id = 0;
   int trial_id = 0;
   bool initial = false;  // from the random initial design
+  bool enqueued = false;  // a queued known gait (`enqueue`), not a proposal of the model
   std::map<std::string, double> parameters;  // the searched parameters, SI units
   RolloutReport report;
 };

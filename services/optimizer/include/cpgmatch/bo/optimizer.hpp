@@ -40,6 +40,7 @@
 #include <Eigen/Core>
 
 #include "cpgmatch/bo/acquisition.hpp"
+#include "cpgmatch/bo/constraints.hpp"
 #include "cpgmatch/bo/fall_model.hpp"
 #include "cpgmatch/bo/gaussian_process.hpp"
 #include "cpgmatch/bo/initial_design.hpp"
@@ -84,6 +85,10 @@ struct OptimizerOptions {
   // Observations after which no more points will be asked for (a study's budget; 0: no limit). The model
   // is not refitted for the last one: a fit nobody will ask is pure cost (minutes on thousands of points).
   int budget = 0;
+  // Constraints every proposal satisfies (constraints.hpp): the initial design keeps only its feasible
+  // points (in order), the acquisition search scores and refines only feasible points, and the random
+  // fallbacks draw until a point is feasible. Null or empty: the box alone, exactly as without the option.
+  std::shared_ptr<const ParameterConstraints> constraints;
 
   // Throws InputError naming the first invalid field.
   void validate() const;
@@ -110,6 +115,11 @@ struct HedgeState {
 // it restores the optimizer exactly (restore()), without refitting once per observation.
 struct ModelState {
   int observations = 0;                 // how many observations this state belongs to
+  // How many of them the latest fit covered: fewer than `observations` when the last tells did not refit
+  // (the budget's last observation is never fitted: nobody will ask). -1: not known (an older store).
+  // A study continued with a larger budget restores at this count and tells the rest again, so that they
+  // are fitted as they would have been had the budget been larger from the start.
+  int fitted_observations = -1;
   int fits = 0;                         // hyperparameter fits so far (sets when random restarts happen)
   bool have_hyperparameters = false;
   Eigen::VectorXd hyperparameters;      // GpHyperparameters::pack() of the latest fit
@@ -205,6 +215,14 @@ class BayesianOptimizer {
                                                    const Candidates& candidates) const;
   std::vector<Eigen::VectorXd> ask_model(int n, const std::vector<Eigen::VectorXd>& pending, int issued);
   bool is_duplicate(const Eigen::VectorXd& u, const Eigen::MatrixXd& taken) const;
+  bool constrained() const { return options_.constraints && !options_.constraints->empty(); }
+  bool feasible_unit(const Eigen::VectorXd& u) const { return !constrained() || options_.constraints->feasible_unit(u); }
+  // A uniform random point of the unit cube that satisfies the constraints (drawn until one does).
+  Eigen::VectorXd random_unit_point(std::mt19937_64& rng) const;
+  // The initial design: options_.initial_points rows, only feasible ones under constraints.
+  Eigen::MatrixXd feasible_design() const;
+  // The furthest feasible point on the segment from `inside` (feasible) towards `outside` (bisection).
+  Eigen::VectorXd feasible_towards(const Eigen::VectorXd& inside, const Eigen::VectorXd& outside) const;
 
   SearchSpace space_;
   OptimizerOptions options_;
@@ -214,6 +232,7 @@ class BayesianOptimizer {
   GpHyperparameters last_hyper_;
   bool have_hyper_ = false;
   int fits_ = 0;
+  int fitted_observations_ = 0;  // observations the latest fit (or restore's factorisation) covered
   HedgeState hedge_;
   FallModel fall_;
   GpHyperparameters last_fall_hyper_;

@@ -15,11 +15,15 @@
 //   validation: {hardware_sets: 10, spread: 0.10}   # optional: the hardware validation phase
 //   hardware: {strategy: multi_fidelity, budget: 15, max_fall_probability: 0.2}   # optional: see HardwareConfig
 //   robot: morti            # optional: only this robot agent runs its hardware rollouts
+//   constraints: ["hip_offset + hip_amplitude * (1 + overswing) <= 1.33"]   # optional, see bo/constraints.hpp
+//   enqueue: [good-gait.yaml]   # optional: parameter files run first (docs/steering.md)
 #pragma once
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
+#include "cpgmatch/bo/constraints.hpp"
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/bo/search_space.hpp"
 
@@ -82,6 +86,13 @@ struct StudyConfig {
   // 0: asynchronous (reports told as they arrive, every free slot filled at once; not reproducible).
   int lockstep = 0;
   bool lockstep_given = false;  // the file says lockstep (study run sets it to its worker count otherwise)
+  // Inequalities over CPG parameter names every proposal satisfies (bo/constraints.hpp). Parsed here (an
+  // unknown name or a syntax error names the file's line and the position); bound to the space and the
+  // base parameters by StudySpec (bind_constraints), which sets optimizer.constraints.
+  std::vector<bo::Constraint> constraints;
+  // Parameter files whose gaits run first (`enqueue:`), as the file names them. The submitting client reads
+  // them (relative to the study file) and sends their values with the submit; the names stay out of the spec.
+  std::vector<std::string> enqueue_files;
   // Some of its work only a robot can run (a validation phase, a hardware exploration, hardware proposals).
   bool needs_hardware() const {
     return validation.enabled || explore_on == WorkerKindWanted::kHardware || hardware.models_hardware();
@@ -93,6 +104,10 @@ struct StudyConfig {
 // model, settings and parameter value written out (`study show`) is about 10 kB; this leaves room for
 // comments and long parameter lists, not for a file built to exhaust the service's memory.
 inline constexpr std::size_t kMaxStudyFileBytes = 256 * 1024;
+
+// Binds `config.constraints` to its space, with `base_parameters` (every CPG parameter's value in the
+// study) for the names it does not search or fix: sets config.optimizer.constraints.
+void bind_constraints(StudyConfig& config, const std::map<std::string, double>& base_parameters);
 
 // Throws InputError naming the file, line and field.
 StudyConfig load_study_config(const std::string& path);

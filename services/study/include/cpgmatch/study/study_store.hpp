@@ -35,6 +35,8 @@ class StoreWriteError : public std::runtime_error {
 
 enum class TrialStatus { kInFlight, kDone };
 
+inline constexpr const char* kPhaseEnqueued = "enqueued";
+
 struct StoredTrial {
   int trial_id = 0;
   Eigen::VectorXd x;               // in the search space's units
@@ -51,7 +53,8 @@ struct StoredTrial {
   nlohmann::json report;
   // "exploration" (told to the optimizer), "validation" (a hardware set around the answer, never told) or
   // "hardware" (a hardware proposal of a transfer or multi_fidelity study, told to its hardware model).
-  // Stores older than the column read as exploration, which is all they held.
+  // Stores older than the column read as exploration, which is all they held. "enqueued" (kPhaseEnqueued):
+  // a known gait queued by a user (`enqueue`), otherwise an exploration trial (told, counted in the budget).
   std::string phase = "exploration";
   int faults = 0;                  // attempts that ended in a plant fault or a divergence (not spent)
 };
