@@ -77,13 +77,14 @@ command -v openssl >/dev/null || { echo "make-study-pki.sh: openssl is not insta
 
 C=cpgmatch/candidates R=cpgmatch/reports W=cpgmatch/workers S=cpgmatch/study_state
 T=cpgmatch/trials K=cpgmatch/commands Y=cpgmatch/replies E=cpgmatch/estop P=cpgmatch/study_specs
+X=cpgmatch/rollout_traces
 # Emergency stops: the operator sends them (cpgmatch estop), workers read them (robot agents act on
 # them; simulation workers have no reader). A viewer may not stop a robot.
 # Study specs: the optimizer publishes them, workers run them, and anyone who may read a study may read
-# what it computes.
-declare -A PUBLISH=([optimizer]="$C $S $T $Y $P" [worker]="$R $W" [operator]="$K $E" [viewer]="")
-declare -A SUBSCRIBE=([optimizer]="$R $W $K" [worker]="$C $E $P" [operator]="$Y $S $T $W $P" [viewer]="$S $T $W $P")
-ALL_TOPICS="$C $R $W $S $T $K $Y $E $P"
+# what it computes. Rollout traces: robot agents send them, the optimizer stores them.
+declare -A PUBLISH=([optimizer]="$C $S $T $Y $P" [worker]="$R $W $X" [operator]="$K $E" [viewer]="")
+declare -A SUBSCRIBE=([optimizer]="$R $W $K $X" [worker]="$C $E $P" [operator]="$Y $S $T $W $P" [viewer]="$S $T $W $P")
+ALL_TOPICS="$C $R $W $S $T $K $Y $E $P $X"
 
 mkdir -p "$KEYSTORE"/{public,private,enclaves}
 chmod 700 "$KEYSTORE/private"

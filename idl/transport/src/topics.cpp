@@ -27,6 +27,10 @@ const TopicInfo& topic_info(TopicId id) {
   // Specs are transient-local, one sample per spec: a worker that joins mid-study gets every open study's
   // spec at once. The optimizer unregisters a spec when no open study uses it any more.
   static const TopicInfo kStudySpecs{"cpgmatch/study_specs", true, 1, 1000};
+  // Trace chunks are volatile (a trace is worth having, not worth a late joiner's replay of megabytes) and
+  // keyed by trial: one instance holds a whole trace's chunks (up to 235 at 256 ticks), so the depth must
+  // keep every chunk until it is acknowledged. The agent unregisters a trace once it is acknowledged.
+  static const TopicInfo kRolloutTraces{"cpgmatch/rollout_traces", false, 256, 8};
   switch (id) {
     case TopicId::kCandidates: return kCandidates;
     case TopicId::kReports: return kReports;
@@ -37,6 +41,7 @@ const TopicInfo& topic_info(TopicId id) {
     case TopicId::kReplies: return kReplies;
     case TopicId::kEmergencyStop: return kEmergencyStop;
     case TopicId::kStudySpecs: return kStudySpecs;
+    case TopicId::kRolloutTraces: return kRolloutTraces;
   }
   throw std::logic_error("unknown topic id");
 }
