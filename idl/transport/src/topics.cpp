@@ -85,6 +85,11 @@ dds::DataWriterQos writer_qos(TopicId id) {
     // the event thread's time at 20 studies on 8 workers (perf), and loop latencies of 100+ ms.
     qos.writer_resource_limits().reader_filters_allocation = eprosima::fastrtps::ResourceLimitedContainerConfig(0, 0, 0);
   }
+  if (id == TopicId::kRolloutTraces) {
+    // A trace is a burst of 50 kB chunks; one the reader's socket dropped is repaired at the next
+    // heartbeat, which by default comes 3 s later (measured: 3.0 s of a trace's 3.0 s delivery).
+    qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100000000);
+  }
   // Writers never block the event loop for long when a reader is slow.
   qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(0, 100000000);
   return qos;

@@ -132,7 +132,8 @@ std::vector<StoredTrace> StudyStore::load_traces(int study_id) const {
     t.terrain = q.column_text(4);
     try {
       t.seed = std::stoull(q.column_text(5));
-      for (const auto& [name, value] : nlohmann::json::parse(q.column_text(6)).items()) t.parameters[name] = value.get<double>();
+      const nlohmann::json params = nlohmann::json::parse(q.column_text(6));  // outlives the loop below
+      for (const auto& [name, value] : params.items()) t.parameters[name] = value.get<double>();
     } catch (const std::exception& e) {
       throw std::runtime_error(fmt::format("{}: unreadable header: {}", what, e.what()));
     }
