@@ -7,14 +7,12 @@
 # in its hardware model, and its answer a hardware trial.
 source "$(dirname "$0")/robot_lib.sh"
 relaxed_robot_yaml "$WORK/robot.yaml"
-# The robot's body: the shipped Morti whose knee spring has set (15 -> 12 N m/rad).
-sed -e 's|^  stiffness_nm_per_rad: {value: 15.0, source: .*|  stiffness_nm_per_rad: {value: 12.0, source: "worn knee spring: 20% softer than the simulation'"'"'s 15 N m/rad (a steel spring that has set after many rollouts), the reality gap this test learns across"}|' \
-  "$CONFIGS/model/morti.yaml" >"$WORK/worn-knee.yaml"
-grep -q 'value: 12.0, source: "worn knee spring' "$WORK/worn-knee.yaml" || fail "the worn-knee model was not made"
+# The robot's body: configs/model/worn-knee-spring.yaml, the shipped Morti whose knee spring has set
+# (15 -> 12 N m/rad).
 PORT=$(free_udp_port)
 write_study "$WORK/s.yaml" two-sources 10 5
 echo "hardware: {strategy: multi_fidelity, budget: 3}" >>"$WORK/s.yaml"
-start_emulator "udp:127.0.0.1:$PORT" --lockstep --model "$WORK/worn-knee.yaml"
+start_emulator "udp:127.0.0.1:$PORT" --lockstep --model "$CONFIGS/model/worn-knee-spring.yaml"
 start_optimizer "$WORK/s.db"
 start_worker sim1
 "$BIN/cpgmatch-robot-agent" --insecure --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \

@@ -73,6 +73,17 @@ python3 -c 'import sys; k=float(sys.argv[1]); sys.exit(0 if abs(k - 12.0) <= 1.2
 grep -q "stiffness_nm_per_rad: {value: " "$WORK/calibrated.yaml" || fail "the calibrated model has no fitted entry"
 "$BIN/cpgmatch" rollout --model "$WORK/calibrated.yaml" --entrain 0.2 --eval 0.2 --json >/dev/null 2>&1 \
   || fail "the calibrated model does not load"
+# A study on the calibrated model (`model: FILE`, relative to the study file): the client sends the file's
+# content, the stored spec holds the calibrated value and records which file it came from.
+write_study "$WORK/on-calibrated.yaml" on-calibrated 1 1
+echo "model: calibrated.yaml" >>"$WORK/on-calibrated.yaml"
+id2=$(cli study submit --config "$WORK/on-calibrated.yaml" --timeout 30) || fail "submit on the calibrated model failed: $id2"
+k2=$(sql "$WORK/s.db" "select json_extract(spec_json, '$.model.knee_spring.stiffness_nm_per_rad.value') from studies where study_id=$id2")
+python3 -c 'import sys; sys.exit(0 if abs(float(sys.argv[1]) - float(sys.argv[2])) < 1e-3 * float(sys.argv[2]) else 1)' "$k2" "$k" \
+  || fail "the study's spec has knee stiffness $k2, not the calibrated $k"
+[[ $(sql "$WORK/s.db" "select json_extract(spec_json, '$.study.model') from studies where study_id=$id2") == calibrated.yaml ]] \
+  || fail "the spec does not say which model file it came from"
+cli study stop "$id2" >/dev/null || true
 kill -TERM "$AGENT_PID"
 wait "$AGENT_PID" || fail "agent exited $? after SIGTERM"
 echo "PASS hardware traces: 4 traces stored ($ticks ticks, $bytes bytes); $rejected of $sent injected chunks rejected;" \

@@ -91,7 +91,7 @@ StudyConfig parse(const YamlReader& r) {
                          "cost_transform", "fall_model", "rollout", "terrain", "parameters", "fixed", "lease_s", "explore_on", "validation", "hardware",
                          "lockstep", "robot",
                          // the study's objective, resolved by StudySpec (study_spec.hpp) and checked there
-                         "model", "rollout_settings", "base_parameters"});
+                         "model", "rollout_settings", "base_parameters", "model_file_text"});
   StudyConfig s;
   // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");
