@@ -9,22 +9,10 @@
 source "$(dirname "$0")/robot_lib.sh"
 INJECT_TRACES=${INJECT_TRACES:?INJECT_TRACES must point at inject_trace_chunks}
 relaxed_robot_yaml "$WORK/robot.yaml"
-PORT=$(free_udp_port)
-write_study "$WORK/s.yaml" traces 4 4
-# Rollouts of 3 s: calibration fits the first 3 s of each (docs/calibration.md). Around the matched trot
-# (configs/params/matched-trot.yaml), so that the robot walks rather than falls at once.
-sed -i 's/^rollout: .*/rollout: {entrain_s: 1.0, eval_s: 2.0}/' "$WORK/s.yaml"
-cat >>"$WORK/s.yaml" <<'YAML'
-explore_on: hardware
-base_parameters: {hip_offset: -0.1934, duty_factor_front: 0.3, duty_factor_hind: 0.75, knee_phase_shift: 0.0, overswing: 0.5}
-parameters:
-  - {name: hip_amplitude, low: 0.30, high: 0.40}
-YAML
-start_emulator "udp:127.0.0.1:$PORT" --lockstep --model "$CONFIGS/model/worn-knee-spring.yaml"
+# Rollouts of 3 s (1 + 2), 4 of them.
+matched_trot_hardware_study "$WORK/s.yaml" traces 4 1.0 2.0
 start_optimizer "$WORK/s.db"
-"$BIN/cpgmatch-robot-agent" --insecure --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$PORT" \
-  --robot "$WORK/robot.yaml" --no-realtime --lockstep >>"$WORK/agent.log" 2>&1 &
-AGENT_PID=$!; PIDS+=("$AGENT_PID")
+start_lockstep_robot "$CONFIGS/model/worn-knee-spring.yaml"
 id=$(cli study submit --config "$WORK/s.yaml" --timeout 30) || fail "submit failed: $id"
 traces() { sql "$WORK/s.db" "select count(*) from traces where study_id=$id"; }
 # Mid-study: the injector joins while the robot runs the first of four rollouts.
