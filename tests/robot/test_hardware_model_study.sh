@@ -47,7 +47,11 @@ answer=$(json_field "$st" recommended_trial)
   || fail "the answer (trial $answer) is not a hardware trial: $st"
 hw=$(sql "$WORK/s.db" "select group_concat(printf('%d:%.3f%s', trial_id, cost, case when json_extract(report_json,'$.outcome')='fell' then ' (fell)' else '' end), ', ') from trials where phase='hardware'")
 sim_best=$(sql "$WORK/s.db" "select printf('%d:%.3f', trial_id, min(cost)) from trials where phase='exploration' and ok")
+# The robot's traces (docs/robot_agent.md, "Rollout traces"): one per hardware rollout, but the one in flight
+# when the optimizer was killed may be lost (the topic is volatile); the report is not.
+traces=$(sql "$WORK/s.db" "select count(*) from traces t join trials r using(study_id, trial_id) where r.phase='hardware' and t.attempt=r.attempt")
+[[ $traces -ge 2 ]] || fail "expected the traces of at least the 2 hardware rollouts after the restart, got $traces"
 kill -TERM "$AGENT_PID"
 wait "$AGENT_PID" || fail "agent exited $? after SIGTERM"
-echo "PASS hardware model study: restarted with $at_restart hardware reports in; hardware trials (trial:cost) $hw;" \
+echo "PASS hardware model study: restarted with $at_restart hardware reports in; hardware trials (trial:cost) $hw ($traces traces kept);" \
   "best simulated $sim_best; answer trial $answer, predicted $(json_field "$st" recommended_predicted_cost)"
