@@ -103,6 +103,10 @@ void dispatch(Coordinator& coordinator, TraceIntake& traces, Event& event) {
       traces.add(dds::from_wire(chunk->sample), now, chunk->sender);
     } catch (const dds::WireError& e) {
       traces.reject(e.what());
+    } catch (const study::StoreWriteError&) {
+      throw;  // as below: the store cannot be written, the service stops and says so
+    } catch (const std::exception& e) {
+      traces.reject(e.what());  // whatever else a chunk provokes, it must not take the service down
     }
     return;
   }
