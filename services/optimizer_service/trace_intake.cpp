@@ -44,10 +44,12 @@ void TraceIntake::add(domain::RolloutTraceChunk chunk, double now_s, const std::
   if (r.rejected) return count_rejection(*r.rejected);
   if (!r.complete) return;
   const domain::RolloutTrace& t = *r.complete;
-  if (auto why = store_.save_trace(t, unix_now_s())) {
+  bool already_kept = false;
+  if (auto why = store_.save_trace(t, unix_now_s(), &already_kept)) {
     return count_rejection(fmt::format("trace of study {} trial {} attempt {}: {}", t.id.study_id, t.id.trial_id,
                                        t.id.attempt, *why));
   }
+  if (already_kept) return;  // the agent's history again, after a restart: kept already
   ++stored_;
   info_(fmt::format("study {} trial {}: stored the robot's trace ({} ticks at {} Hz{})", t.id.study_id, t.id.trial_id,
                     t.trace.ticks.size(), t.control_rate_hz,

@@ -191,8 +191,11 @@ class TraceStore : public ::testing::Test {
 
 TEST_F(TraceStore, KeepsATraceExactlyAndOnlyForAnIssuedAttempt) {
   const RolloutTrace trace = make_trace(1234, store_->store_id(), study_);
-  EXPECT_FALSE(store_->save_trace(trace, 1.7e9));
-  EXPECT_TRUE(store_->save_trace(trace, 1.7e9));  // the same attempt again
+  bool again = true;
+  EXPECT_FALSE(store_->save_trace(trace, 1.7e9, &again));
+  EXPECT_FALSE(again);
+  EXPECT_FALSE(store_->save_trace(make_trace(10, store_->store_id(), study_), 1.7e9, &again));  // the same attempt again
+  EXPECT_TRUE(again);  // kept once, the first
   EXPECT_TRUE(store_->save_trace(make_trace(10, store_->store_id(), study_, 5), 1.7e9));      // no trial 5
   EXPECT_TRUE(store_->save_trace(make_trace(10, store_->store_id(), study_, 0, 1), 1.7e9));   // never re-issued
   EXPECT_TRUE(store_->save_trace(make_trace(10, store_->store_id() + 1, study_), 1.7e9));     // another store's

@@ -75,7 +75,8 @@ void StudyStore::create_trace_table() {
   }
 }
 
-std::optional<std::string> StudyStore::save_trace(const domain::RolloutTrace& t, double now_s) {
+std::optional<std::string> StudyStore::save_trace(const domain::RolloutTrace& t, double now_s, bool* already_kept) {
+  if (already_kept != nullptr) *already_kept = false;
   if (t.id.store_id != store_id_) {
     return fmt::format("store id {:016x} is not this store's ({:016x})", t.id.store_id, store_id_);
   }
@@ -92,7 +93,10 @@ std::optional<std::string> StudyStore::save_trace(const domain::RolloutTrace& t,
   {
     Statement kept(db_, "SELECT 1 FROM traces WHERE study_id = ? AND trial_id = ? AND attempt = ? AND worker_id = ?");
     kept.bind(1, t.id.study_id).bind(2, t.id.trial_id).bind(3, t.id.attempt).bind(4, t.worker_id);
-    if (kept.step()) return "this attempt's trace is kept already";
+    if (kept.step()) {
+      if (already_kept != nullptr) *already_kept = true;
+      return std::nullopt;
+    }
   }
   nlohmann::json params = nlohmann::json::object();
   for (const auto& [name, value] : t.parameters) params[name] = value;

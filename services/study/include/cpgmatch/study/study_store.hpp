@@ -154,9 +154,10 @@ class StudyStore {
   void require_writable() const;
 
   // Keeps a hardware rollout's trace (the `traces` table). Refused, with the reason and nothing written, when
-  // its store, study or trial is not this store's, the attempt was never issued, or that attempt's trace is
-  // kept already. Throws StoreWriteError when it cannot be written.
-  std::optional<std::string> save_trace(const domain::RolloutTrace& trace, double now_s);
+  // its store, study or trial is not this store's or the attempt was never issued. That attempt's trace
+  // kept already (sent again to a restarted optimizer) is no refusal: nothing is written and
+  // `already_kept`, when given, says so. Throws StoreWriteError when it cannot be written.
+  std::optional<std::string> save_trace(const domain::RolloutTrace& trace, double now_s, bool* already_kept = nullptr);
   // The study's kept traces, by trial and attempt (empty for a store older than the table). Throws
   // std::runtime_error naming the trial when a stored trace is unreadable.
   std::vector<StoredTrace> load_traces(int study_id) const;
