@@ -77,17 +77,18 @@ command -v openssl >/dev/null || { echo "make-study-pki.sh: openssl is not insta
 
 C=cpgmatch/candidates R=cpgmatch/reports W=cpgmatch/workers S=cpgmatch/study_state
 T=cpgmatch/trials K=cpgmatch/commands Y=cpgmatch/replies E=cpgmatch/estop P=cpgmatch/study_specs
+X=cpgmatch/rollout_traces
 # Emergency stops: the operator sends them (cpgmatch estop), workers read them (robot agents act on
 # them; simulation workers have no reader). A viewer may not stop a robot.
 # Study specs: the optimizer publishes them, workers run them, and anyone who may read a study may read
-# what it computes.
+# what it computes. Rollout traces: robot agents send them, the optimizer stores them.
 # The ROS 2 view (docs/ros2.md): the optimizer republishes state, trials and workers under ROS 2's names;
 # whoever may read those natively may read them there.
 RS=rt/cpgmatch/study_state RT=rt/cpgmatch/trials RW=rt/cpgmatch/workers
 ROS2="$RS $RT $RW"
-declare -A PUBLISH=([optimizer]="$C $S $T $Y $P $ROS2" [worker]="$R $W" [operator]="$K $E" [viewer]="")
-declare -A SUBSCRIBE=([optimizer]="$R $W $K" [worker]="$C $E $P" [operator]="$Y $S $T $W $P $ROS2" [viewer]="$S $T $W $P $ROS2")
-ALL_TOPICS="$C $R $W $S $T $K $Y $E $P $ROS2"
+declare -A PUBLISH=([optimizer]="$C $S $T $Y $P $ROS2" [worker]="$R $W $X" [operator]="$K $E" [viewer]="")
+declare -A SUBSCRIBE=([optimizer]="$R $W $K $X" [worker]="$C $E $P" [operator]="$Y $S $T $W $P $ROS2" [viewer]="$S $T $W $P $ROS2")
+ALL_TOPICS="$C $R $W $S $T $K $Y $E $P $X $ROS2"
 
 mkdir -p "$KEYSTORE"/{public,private,enclaves}
 chmod 700 "$KEYSTORE/private"

@@ -1,5 +1,7 @@
 #include "hardware_runner.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <ctime>
 #include <mutex>
 
@@ -97,6 +99,10 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
       impl_->realtime_warning = enter_realtime(impl_->options.fifo_priority).warning;
     });
   }
+  // The trace's room, before the motors are on: a tick per control period of the whole rollout.
+  const double expected_ticks = std::ceil((settings.entrain_s + settings.eval_s) * impl_->config.control_rate_hz) + 2.0;
+  const TraceSink trace = domain::record_trace_bounded(
+      out.trace, static_cast<std::size_t>(std::min<double>(expected_ticks, domain::kMaxTraceTicks)), out.trace_ticks_dropped);
   CanPlant& plant = *impl_->plant;
   const std::optional<std::string> not_ready = plant.activate(settings.entrain_s + settings.eval_s);
   // activate() clears the plant's trip, so a stop that came while it ran is read from the latch here.
@@ -115,7 +121,7 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
   }
   const double cpu_start = thread_cpu_s();
   try {
-    out.result = run_rollout(plant, params, settings, seed);
+    out.result = run_rollout(plant, params, settings, seed, trace);
   } catch (const std::exception& e) {
     plant.emergency_stop("the rollout threw");
     plant.deactivate();
@@ -128,6 +134,7 @@ HardwareRollout HardwareRunner::run(const CpgParameters& params, const RolloutSe
   out.loop = {s.ticks, s.jitter_p50_us, s.jitter_p99_us, s.jitter_max_us, s.overruns,
               s.feedback_latency_p50_us, s.feedback_latency_p99_us, s.feedback_latency_max_us,
               s.missing_replies, s.unexpected_frames};
+  out.trace.source = fmt::format("robot rollout at {} Hz", impl_->config.control_rate_hz);
   if (plant.fault_ended_rollout()) {
     out.error = fmt::format("safe stop at t = {:.3f} s: {}", plant.state().time_s, plant.fault().value_or("?"));
     out.outcome = HardwareOutcome::kPlantFault;

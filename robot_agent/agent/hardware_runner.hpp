@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "cpgmatch/domain/rollout_trace.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/robot/estop_latch.hpp"
 #include "cpgmatch/rollout.hpp"
@@ -51,6 +52,10 @@ struct HardwareRollout {
   RolloutResult result;       // valid when ok
   HardwareLoopStats loop;
   double cpu_s = 0.0;         // the rollout thread's CPU time
+  // What the robot did at each control tick (when ok): the first domain::kMaxTraceTicks ticks, recorded
+  // into room reserved before the loop starts (no allocation in the loop); the rest only counted.
+  domain::MeasuredTrace trace;
+  std::uint64_t trace_ticks_dropped = 0;
 };
 
 class HardwareRunner {

@@ -40,6 +40,7 @@
 #include "cpgmatch/worker/spec_book.hpp"
 #include "cpgmatch/worker/worker_link.hpp"
 #include "hardware_runner.hpp"
+#include "trace_sender.hpp"
 
 namespace cpgmatch::robot {
 namespace {
@@ -174,7 +175,8 @@ class HardwareWorker {
                                        [this](const domain::EmergencyStop& s) { on_emergency_stop(s); },
                                        static_cast<int>(study::kObjectiveVersion)},
               queue_),
-        specs_(link_, static_cast<int>(study::kObjectiveVersion)) {
+        specs_(link_, static_cast<int>(study::kObjectiveVersion)),
+        traces_(link_.participant()) {
     rollout_thread_ = std::thread([this] { rollout_loop(); });
   }
 
@@ -184,6 +186,7 @@ class HardwareWorker {
     link_.heartbeat_until([] { return g_stop != 0; });
     queue_.drain();
     rollout_thread_.join();
+    traces_.drain(std::chrono::seconds(5));
     link_.leave();
     spdlog::info("robot agent {}: {} rollouts done, bye", options_.id, queue_.load().completed);
   }
@@ -212,14 +215,18 @@ class HardwareWorker {
     }
   }
 
+  // The report first, then its trace (the report never waits on the trace; TraceSender sends it).
   void rollout_loop() {
     while (const std::optional<domain::Candidate> c = queue_.take()) {
-      link_.publish(execute(*c));
+      std::optional<domain::RolloutTrace> trace;
+      link_.publish(execute(*c, trace));
+      if (trace) traces_.send(std::move(*trace));
       queue_.finish(*c);
     }
   }
 
-  domain::RolloutReport execute(const domain::Candidate& c) {
+  // Runs a candidate; `trace` gets what the robot did when the rollout ran.
+  domain::RolloutReport execute(const domain::Candidate& c, std::optional<domain::RolloutTrace>& trace) {
     const auto start = std::chrono::steady_clock::now();
     HardwareRollout h;
     if (auto why = domain::check_parameters(c.parameters)) {
@@ -246,6 +253,10 @@ class HardwareWorker {
         }
         spdlog::info("study {} trial {}: rollout on the robot ({} + {} s)", c.id.study_id, c.id.trial_id, settings.entrain_s, settings.eval_s);
         h = runner_.run(params, settings, c.rollout.seed);
+        if (h.ok) {
+          trace = domain::RolloutTrace{c.id, options_.id, runner_.control_rate_hz(), c.rollout.terrain, c.rollout.seed,
+                                       to_map(params), h.trace_ticks_dropped, std::move(h.trace)};
+        }
       } catch (const std::exception& e) {
         h.ok = false;
         h.error = e.what();
@@ -273,6 +284,7 @@ class HardwareWorker {
   worker::CandidateQueue queue_;
   worker::WorkerLink link_;  // after the queue: its readers feed the queue from the moment it exists
   worker::SpecBook specs_;
+  TraceSender traces_;  // after the link: it writes on the link's participant
   std::thread rollout_thread_;
 };
 

@@ -23,6 +23,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cpgmatch/dds/convert.hpp"
+#include "cpgmatch/dds/convert_trace.hpp"
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/dds/ros2_view.hpp"
@@ -36,6 +37,7 @@
 #include "cpgmatch/study/store_lock.hpp"
 #include "event_queue.hpp"
 #include "loop_latency.hpp"
+#include "trace_intake.hpp"
 
 namespace cpgmatch::service {
 namespace {
@@ -64,7 +66,7 @@ struct From {
   std::optional<std::string> sender;
 };
 using Sample = std::variant<msg::StudyCommand, From<msg::RolloutReport>, From<msg::WorkerAnnouncement>, WorkerGone,
-                            ModelResult>;
+                            ModelResult, From<msg::RolloutTraceChunk>>;
 struct Event {
   Sample sample;
   std::chrono::steady_clock::time_point arrived = std::chrono::steady_clock::now();
@@ -102,8 +104,21 @@ bool may_show_worker(bool secure, const std::optional<std::string>& sender, cons
 
 // Hands one sample to the coordinator. A store that cannot be written stops the service (the caller's
 // transaction rolls back, nothing unrecorded was acknowledged); any other error drops only this sample.
-void dispatch(Coordinator& coordinator, Event& event, dds::Ros2View* ros2, bool secure) {
+void dispatch(Coordinator& coordinator, TraceIntake& traces, Event& event, dds::Ros2View* ros2, bool secure) {
   const double now = monotonic_now_s();
+  // A trace chunk goes to the trace intake, never to the coordinator: a trace cannot touch a study.
+  if (auto* chunk = std::get_if<From<msg::RolloutTraceChunk>>(&event.sample)) {
+    try {
+      traces.add(dds::from_wire(chunk->sample), now, chunk->sender);
+    } catch (const dds::WireError& e) {
+      traces.reject(e.what());
+    } catch (const study::StoreWriteError&) {
+      throw;  // as below: the store cannot be written, the service stops and says so
+    } catch (const std::exception& e) {
+      traces.reject(e.what());  // whatever else a chunk provokes, it must not take the service down
+    }
+    return;
+  }
   try {
     std::visit(
         [&](auto& e) {
@@ -266,6 +281,8 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
       store, outbox, options, [](const std::string& m) { spdlog::info("{}", m); },
       [](const std::string& m) { spdlog::warn("{}", m); });
   coordinator.resume_from_store(monotonic_now_s());
+  TraceIntake traces(
+      store, secure, [](const std::string& m) { spdlog::info("{}", m); }, [](const std::string& m) { spdlog::warn("{}", m); });
 
   dds::Reader<msg::StudyCommand> commands(participant, [&](const msg::StudyCommand& c) { queue.push(Event{c}); });
   auto sender = [&](const dds::SampleOrigin& o) { return secure ? participant.identity_of(o.participant) : std::nullopt; };
@@ -285,6 +302,11 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
         std::optional<std::string> by;
         if (secure && gone.disposed) by = sender(gone.origin).value_or("");
         queue.push(Event{WorkerGone{key.worker_key(), gone.disposed, by}});
+      });
+  dds::Reader<msg::RolloutTraceChunk> trace_chunks(
+      participant, dds::Reader<msg::RolloutTraceChunk>::WithOrigin{},
+      [&](const msg::RolloutTraceChunk& c, const dds::SampleOrigin& o) {
+        queue.push(Event{From<msg::RolloutTraceChunk>{c, sender(o)}});
       });
   spdlog::info("optimizer on domain {} with store {} ({} studies, {} model threads)", domain, store_path,
                coordinator.studies(), model_threads);
@@ -342,7 +364,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
           const auto chunk_start = Clock::now();
           queue_wait.add(seconds_between(events[first].arrived, chunk_start));
           while (last < events.size() && last - first < kMaxChunkEvents && Clock::now() - chunk_start < kMaxChunk) {
-            dispatch(coordinator, events[last++], ros2.get(), secure);
+            dispatch(coordinator, traces, events[last++], ros2.get(), secure);
           }
         }, PhaseTimes{&chunk_handling, &chunk_commit, &chunk_publish});
         // Handled = committed and its effects published.
@@ -355,7 +377,10 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
         first = last;
       }
       const auto tick_start = Clock::now();
-      in_one_transaction([&] { coordinator.tick(monotonic_now_s()); }, PhaseTimes{nullptr, &tick_commit, &tick_publish});
+      in_one_transaction([&] {
+        coordinator.tick(monotonic_now_s());
+        traces.tick(monotonic_now_s());
+      }, PhaseTimes{nullptr, &tick_commit, &tick_publish});
       tick_duration.add(seconds_between(tick_start, Clock::now()));
       if (g_print_stats) {
         g_print_stats = 0;
@@ -371,6 +396,7 @@ int run(int domain, const std::string& store_path, bool full_durability, double 
     throw;
   }
   log_latency();
+  spdlog::info("rollout traces: {} stored, {} rejected", traces.stored(), traces.rejected());
   spdlog::info("optimizer stopping; waiting for running model jobs; every study is in {}", store_path);
   coordinator.wait_for_models();
   coordinator.apply_model_results();  // their model states go to the store

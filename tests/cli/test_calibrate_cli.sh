@@ -13,7 +13,12 @@ knee=knee_spring.stiffness_nm_per_rad
 run() { "$bin" calibrate --out "$tmp/cal.yaml" "$@"; }
 
 check "no trace" expect_exit 2 "\-\-trace" run --params-file "$params" --params $knee
-check "no params" expect_exit 2 "\-\-params" run --trace "$tmp/worn.csv" --params-file "$params"
+check "no params file" expect_exit 2 "\-\-params-file: required with \-\-trace" run --trace "$tmp/worn.csv" --params $knee
+check "trace and store" expect_exit 2 "either \-\-trace" run --trace "$tmp/worn.csv" --store "$tmp/s.db" --study 1
+check "store without study" expect_exit 2 "\-\-study: required with \-\-store" run --store "$tmp/s.db"
+check "no such store" expect_exit 2 "nope.db: no such file" run --store "$tmp/nope.db" --study 1
+check "store with params file" expect_exit 2 "\-\-params-file: not with \-\-store" \
+  run --store "$tmp/nope.db" --study 1 --params-file "$params"
 check "unknown value" expect_exit 2 "\-\-params: 'knee_spring.stifness' is not a model value" \
   run --trace "$tmp/worn.csv" --params-file "$params" --params knee_spring.stifness
 check "value twice" expect_exit 2 "named twice" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee,$knee

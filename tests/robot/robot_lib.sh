@@ -18,3 +18,27 @@ start_emulator() {  # start_emulator URI [extra args]; sets EMU_PID
   PIDS+=("$EMU_PID")
   sleep 0.3
 }
+
+# A hardware-only study around the matched trot (configs/params/matched-trot.yaml; only the hip amplitude
+# varies), so that the robot walks rather than falls at once: the rollout traces' tests and benchmark.
+matched_trot_hardware_study() {  # matched_trot_hardware_study FILE NAME BUDGET ENTRAIN_S EVAL_S
+  write_study "$1" "$2" "$3" "$3"
+  sed -i "s/^rollout: .*/rollout: {entrain_s: $4, eval_s: $5}/" "$1"
+  cat >>"$1" <<'YAML'
+explore_on: hardware
+base_parameters: {hip_offset: -0.1934, duty_factor_front: 0.3, duty_factor_hind: 0.75, knee_phase_shift: 0.0, overswing: 0.5}
+parameters:
+  - {name: hip_amplitude, low: 0.30, high: 0.40}
+YAML
+}
+
+# The emulator in lockstep on MODEL and the agent (id morti) on it; sets AGENT_PID.
+start_lockstep_robot() {  # start_lockstep_robot MODEL.yaml
+  local port
+  port=$(free_udp_port)
+  start_emulator "udp:127.0.0.1:$port" --lockstep --model "$1"
+  "$BIN/cpgmatch-robot-agent" --insecure --domain "$DOMAIN" --localhost-only --id morti --can "udp:127.0.0.1:$port" \
+    --robot "$WORK/robot.yaml" --no-realtime --lockstep >>"$WORK/agent.log" 2>&1 &
+  AGENT_PID=$!
+  PIDS+=("$AGENT_PID")
+}

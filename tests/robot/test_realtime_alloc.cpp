@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "cpgmatch/can/can_bus.hpp"
+#include "cpgmatch/domain/rollout_trace.hpp"
 #include "cpgmatch/robot/can_plant.hpp"
 #include "cpgmatch/robot/robot_config.hpp"
 #include "cpgmatch/robot/robot_device.hpp"
@@ -117,17 +118,29 @@ int free_udp_port() {
   return ntohs(a.sin_port);
 }
 
-TEST(RealtimeLoop, ARolloutOnTheCanPlantAllocatesNothingOnceActive) {
-  RobotConfig config = load_robot_config(default_robot_config_path());
-  config.safety.max_consecutive_overruns = 100;  // this shared machine may deschedule the loop
-  config.safety.feedback_timeout_s = 0.5;
-  const std::string uri = "udp:127.0.0.1:" + std::to_string(free_udp_port());
-  AnsweringRobot robot(config, uri);
-  auto bus = can::open_can_bus(uri);
-  CanPlant plant(config, *bus, CanPlantOptions{0.2, false});
-  RolloutSettings settings;
-  settings.entrain_s = 0.5;
-  settings.eval_s = 0.5;
+// The shipped robot on a udp bus with a robot answering it, and a rollout of 0.5 + 0.5 s.
+class RealtimeLoop : public ::testing::Test {
+ protected:
+  static RobotConfig relaxed() {
+    RobotConfig c = load_robot_config(default_robot_config_path());
+    c.safety.max_consecutive_overruns = 100;  // this shared machine may deschedule the loop
+    c.safety.feedback_timeout_s = 0.5;
+    return c;
+  }
+  RobotConfig config = relaxed();
+  std::string uri = "udp:127.0.0.1:" + std::to_string(free_udp_port());
+  AnsweringRobot robot{config, uri};
+  std::unique_ptr<can::CanBus> bus = can::open_can_bus(uri);
+  CanPlant plant{config, *bus, CanPlantOptions{0.2, false}};
+  RolloutSettings settings = [] {
+    RolloutSettings s;
+    s.entrain_s = 0.5;
+    s.eval_s = 0.5;
+    return s;
+  }();
+};
+
+TEST_F(RealtimeLoop, ARolloutOnTheCanPlantAllocatesNothingOnceActive) {
   ASSERT_EQ(plant.prepare(settings.entrain_s + settings.eval_s), std::nullopt);  // activation: may allocate
   AllocationWatch watch(plant);
   const RolloutResult result = run_rollout(watch, CpgParameters{}, settings, 1);
@@ -136,6 +149,26 @@ TEST(RealtimeLoop, ARolloutOnTheCanPlantAllocatesNothingOnceActive) {
   ASSERT_FALSE(plant.fault_ended_rollout()) << plant.fault().value_or("");
   EXPECT_NEAR(result.sim_time_s, 1.0, 1e-9);
   EXPECT_EQ(watch.allocations_in_loop(), 0) << "heap allocations inside the real-time loop";
+}
+
+// The agent records every hardware rollout's trace (HardwareRunner::run): into room reserved before the
+// loop, so recording allocates nothing in it either; ticks past the room are counted, not kept.
+TEST_F(RealtimeLoop, RecordingTheTraceAllocatesNothingInTheLoop) {
+  for (const std::size_t room : {std::size_t{502}, std::size_t{300}}) {  // the whole rollout (500 ticks), and less
+    ASSERT_EQ(plant.prepare(settings.entrain_s + settings.eval_s), std::nullopt);
+    domain::MeasuredTrace trace;
+    std::uint64_t dropped = 0;
+    const TraceSink sink = domain::record_trace_bounded(trace, room, dropped);
+    AllocationWatch watch(plant);
+    run_rollout(watch, CpgParameters{}, settings, 1, sink);
+    watch.stop();
+    ASSERT_FALSE(plant.fault_ended_rollout()) << plant.fault().value_or("");
+    EXPECT_EQ(watch.allocations_in_loop(), 0) << "heap allocations while recording the trace (room " << room << ")";
+    EXPECT_EQ(trace.ticks.size(), std::min<std::size_t>(room, 500));
+    EXPECT_EQ(trace.ticks.size() + dropped, 500u);
+    EXPECT_NEAR(trace.ticks.back().time_s, (trace.ticks.size() - 1) / 500.0, 1e-9);  // on the control grid
+  }
+  plant.finish();
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // `cpgmatch calibrate`: fits model values to measured rollout traces (services/calibration) and writes the
-// calibrated model. Traces come from CSV files for now (`cpgmatch rollout --trace`, or a robot's); the
-// store of a study's hardware traces will be another source of the same MeasuredTrace.
+// calibrated model. The traces come from CSV files (`cpgmatch rollout --trace`, or a robot's) or from a
+// study's store (`--store PATH --study ID`: the hardware rollouts the robot agent sent, study_traces.hpp).
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -12,6 +13,7 @@
 #include "commands.hpp"
 #include "cpgmatch/calibration/calibrated_model.hpp"
 #include "cpgmatch/calibration/calibration.hpp"
+#include "cpgmatch/calibration/study_traces.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/yaml_reader.hpp"
@@ -24,8 +26,11 @@ namespace cal = cpgmatch::calibration;
 
 struct CalibrateOptions {
   std::vector<std::string> traces;
+  std::string store;
+  int study_id = 0;
   std::string params_file;
-  std::string values;  // a.b,c.d
+  // a.b,c.d. Default: the knee spring and the trunk mass, which a gait's traces tell apart (docs/calibration.md).
+  std::string values = "knee_spring.stiffness_nm_per_rad,trunk.mass_kg";
   std::string out;
   std::string model_file;
   std::string settings_file;
@@ -106,13 +111,14 @@ void print_scan(cal::Calibration& calibration, const sim::MortiModel& start, con
 void add_calibrate_command(CLI::App& app) {
   auto o = std::make_shared<CalibrateOptions>();
   CLI::App* cmd = app.add_subcommand("calibrate", "fit model values to measured rollout traces (Ceres)");
-  cmd->add_option("--trace", o->traces, "a rollout trace CSV (`cpgmatch rollout --trace`), repeatable")->required();
-  cmd->add_option("--params-file", o->params_file, "the CPG parameters the traces were made with (YAML)")->required();
-  cmd->add_option("--params", o->values, "model values to fit, comma-separated (e.g. knee_spring.stiffness_nm_per_rad)")
-      ->required();
+  cmd->add_option("--trace", o->traces, "a rollout trace CSV (`cpgmatch rollout --trace`), repeatable");
+  cmd->add_option("--store", o->store, "a study store: fit the hardware traces the robot agent sent (with --study)");
+  cmd->add_option("--study", o->study_id, "with --store: the study whose traces are fitted")->check(CLI::Range(1, 1 << 30));
+  cmd->add_option("--params-file", o->params_file, "with --trace: the CPG parameters the traces were made with (YAML)");
+  cmd->add_option("--params", o->values, "model values to fit, comma-separated")->capture_default_str();
   cmd->add_option("--out", o->out, "where to write the calibrated model YAML")->required();
-  cmd->add_option("--model", o->model_file, "start model YAML (default: configs/model/morti.yaml)");
-  cmd->add_option("--settings", o->settings_file, "rollout settings the traces were made with (default: configs/rollout.yaml)");
+  cmd->add_option("--model", o->model_file, "start model YAML (default: configs/model/morti.yaml; with --store: the study's)");
+  cmd->add_option("--settings", o->settings_file, "with --trace: rollout settings the traces were made with (default: configs/rollout.yaml)");
   cmd->add_option("--terrain", o->terrain, "the ground the traces were made on: flat | step:H@D | rough:A | shift:H@T");
   cmd->add_option("--treadmill", o->treadmill_mps, "treadmill belt speed of the traces, m/s")->check(finite_in(-5.0, 5.0, "m/s"));
   cmd->add_option("--seed", o->seed, "seed of the replays' contact-sensor noise")->check(whole_non_negative());
@@ -131,7 +137,7 @@ void add_calibrate_command(CLI::App& app) {
   cmd->add_option("--scan", o->scan, "before fitting, print the cost at these multiples of each start value")
       ->check(finite_in(0.01, 100.0, ""));
   cmd->add_flag("--json", o->json, "print exactly one JSON object");
-  cmd->callback([o] {
+  cmd->callback([o, cmd] {
     const std::vector<const cal::ModelValue*> values = [&] {
       try {
         return cal::parse_model_value_list(o->values);
@@ -139,18 +145,52 @@ void add_calibrate_command(CLI::App& app) {
         throw InputError(fmt::format("--params: {}", e.what()));
       }
     }();
-    const std::string model_path = o->model_file.empty() ? sim::default_model_path() : o->model_file;
-    const std::string model_text = read_text(model_path);
-    const sim::MortiModel start = sim::parse_morti_model(YamlReader::from_string(model_text, model_path));
-    const CpgParameters params = load_parameters(o->params_file);
-    const RolloutSettings settings =
-        load_rollout_settings(o->settings_file.empty() ? sim::default_rollout_settings_path() : o->settings_file);
-    sim::TerrainSpec terrain = sim::TerrainSpec::parse(o->terrain);
-    terrain.treadmill_speed_mps = o->treadmill_mps;
-    std::vector<cal::CalibrationTrace> traces;
-    for (const auto& path : o->traces) {
-      traces.push_back(cal::prepare_trace(cal::read_trace_csv(path), params, settings, terrain, o->seed, o->window_s));
+    struct Source {
+      std::string model_text, model_name;
+      sim::MortiModel start;
+      std::vector<cal::CalibrationTrace> traces;
+      std::vector<std::string> names;
+    } source;
+    if (o->store.empty() == o->traces.empty()) throw InputError("give either --trace FILE ... or --store PATH --study ID");
+    if (o->store.empty()) {
+      if (o->params_file.empty()) throw InputError("--params-file: required with --trace");
+      if (o->study_id != 0) throw InputError("--study: only with --store");
+      source.model_name = o->model_file.empty() ? sim::default_model_path() : o->model_file;
+      source.model_text = read_text(source.model_name);
+      source.start = sim::parse_morti_model(YamlReader::from_string(source.model_text, source.model_name));
+      const CpgParameters params = load_parameters(o->params_file);
+      const RolloutSettings settings =
+          load_rollout_settings(o->settings_file.empty() ? sim::default_rollout_settings_path() : o->settings_file);
+      sim::TerrainSpec terrain = sim::TerrainSpec::parse(o->terrain);
+      terrain.treadmill_speed_mps = o->treadmill_mps;
+      for (const auto& path : o->traces) {
+        source.traces.push_back(cal::prepare_trace(cal::read_trace_csv(path), params, settings, terrain, o->seed, o->window_s));
+      }
+      source.names = o->traces;
+    } else {
+      // Each trace brings its own parameters, rate, seed and terrain; the study's spec the rest.
+      if (o->study_id == 0) throw InputError("--study: required with --store");
+      for (const char* flag : {"--params-file", "--settings", "--terrain", "--treadmill", "--seed"}) {
+        if (cmd->count(flag) > 0) throw InputError(fmt::format("{}: not with --store (each stored trace says it)", flag));
+      }
+      if (!std::filesystem::exists(o->store)) throw InputError(fmt::format("--store {}: no such file", o->store));
+      const study::StudyStore store(o->store);
+      cal::StudyTraces st = cal::load_study_traces(store, o->study_id, o->window_s);
+      for (const auto& why : st.skipped) {
+        if (!o->json) fmt::print("skipped {}\n", why);
+      }
+      source.model_name = st.model_source;
+      source.model_text = st.model_yaml;
+      source.start = st.model;
+      if (!o->model_file.empty()) {  // another start than the study's own model
+        source.model_name = o->model_file;
+        source.model_text = read_text(o->model_file);
+        source.start = sim::parse_morti_model(YamlReader::from_string(source.model_text, o->model_file));
+      }
+      source.traces = std::move(st.traces);
+      source.names = std::move(st.sources);
     }
+    const sim::MortiModel& start = source.start;
     cal::CalibrationOptions options;
     options.values = values;
     options.scales.contact_mismatch = o->contact_weight;
@@ -159,10 +199,10 @@ void add_calibrate_command(CLI::App& app) {
     options.relative_step = o->relative_step;
     options.max_iterations = o->max_iterations;
     options.grid_points = o->grid_points;
-    cal::Calibration calibration(start, std::move(traces), options);
+    cal::Calibration calibration(start, std::move(source.traces), options);
     if (!o->scan.empty() && !o->json) print_scan(calibration, start, values, o->scan);
     const cal::CalibrationResult result = calibration.solve();
-    const std::string text = cal::calibrated_model_text(model_text, model_path, result, o->traces);
+    const std::string text = cal::calibrated_model_text(source.model_text, source.model_name, result, source.names);
     sim::parse_morti_model(YamlReader::from_string(text, o->out));  // what is written must load
     std::ofstream out(o->out);
     if (!(out << text)) throw InputError(fmt::format("--out {}: cannot write", o->out));

@@ -16,6 +16,7 @@
 
 #include <fmt/format.h>
 
+#include "cpgmatch/study/model_file.hpp"
 #include "cpgmatch/study/study_config.hpp"
 #include "commands.hpp"
 #include "gait_files.hpp"
@@ -145,7 +146,8 @@ void add_study_service_commands(CLI::App* study) {
     cmd->add_flag("--quiet", o->quiet, "no progress output");
     add_service_flags(cmd, o->service, "operator");
     cmd->callback([o] {
-      const std::string text = read_text_file(o->config, "--config");
+      // `model: FILE` in the study: the file's content goes with it (model_file.hpp).
+      const std::string text = study::with_model_file(read_text_file(o->config, "--config"), o->config);
       if (text.size() > study::kMaxStudyFileBytes) {
         throw InputError(fmt::format("--config {}: {} bytes, more than a study file may have ({} bytes)", o->config,
                                      text.size(), study::kMaxStudyFileBytes));

@@ -23,6 +23,7 @@
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/study/model_file.hpp"
 #include "service_flags.hpp"
 #include "study_client.hpp"
 
@@ -107,6 +108,7 @@ LocalStudyOptions study_file_options(const std::string& path) {
   LocalStudyOptions o;
   std::ifstream in(path);
   o.config_text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  o.config_text = study::with_model_file(o.config_text, path);  // `model: FILE` sends the file's content
   o.config_source = path;
   return o;
 }

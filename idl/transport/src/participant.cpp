@@ -43,6 +43,7 @@ fdds::TypeSupport type_support(TopicId id) {
     case TopicId::kReplies: return fdds::TypeSupport(new msg::CommandReplyPubSubType());
     case TopicId::kEmergencyStop: return fdds::TypeSupport(new msg::EmergencyStopPubSubType());
     case TopicId::kStudySpecs: return fdds::TypeSupport(new msg::StudySpecSamplePubSubType());
+    case TopicId::kRolloutTraces: return fdds::TypeSupport(new msg::RolloutTraceChunkPubSubType());
   }
   throw std::logic_error("unknown topic id");
 }

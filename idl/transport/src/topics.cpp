@@ -27,6 +27,10 @@ const TopicInfo& topic_info(TopicId id) {
   // Specs are transient-local, one sample per spec: a worker that joins mid-study gets every open study's
   // spec at once. The optimizer unregisters a spec when no open study uses it any more.
   static const TopicInfo kStudySpecs{"cpgmatch/study_specs", true, 1, 1000};
+  // Trace chunks are volatile (a trace is worth having, not worth a late joiner's replay of megabytes) and
+  // keyed by trial: one instance holds a whole trace's chunks (up to 235 at 256 ticks), so the depth must
+  // keep every chunk until it is acknowledged. The agent unregisters a trace once it is acknowledged.
+  static const TopicInfo kRolloutTraces{"cpgmatch/rollout_traces", false, 256, 8};
   switch (id) {
     case TopicId::kCandidates: return kCandidates;
     case TopicId::kReports: return kReports;
@@ -37,6 +41,7 @@ const TopicInfo& topic_info(TopicId id) {
     case TopicId::kReplies: return kReplies;
     case TopicId::kEmergencyStop: return kEmergencyStop;
     case TopicId::kStudySpecs: return kStudySpecs;
+    case TopicId::kRolloutTraces: return kRolloutTraces;
   }
   throw std::logic_error("unknown topic id");
 }
@@ -79,6 +84,11 @@ dds::DataWriterQos writer_qos(TopicId id) {
     // (a key-only sample the filter cannot read) cost an exception per filtered reader: a quarter of
     // the event thread's time at 20 studies on 8 workers (perf), and loop latencies of 100+ ms.
     qos.writer_resource_limits().reader_filters_allocation = eprosima::fastrtps::ResourceLimitedContainerConfig(0, 0, 0);
+  }
+  if (id == TopicId::kRolloutTraces) {
+    // A trace is a burst of 50 kB chunks; one the reader's socket dropped is repaired at the next
+    // heartbeat, which by default comes 3 s later (measured: 3.0 s of a trace's 3.0 s delivery).
+    qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100000000);
   }
   // Writers never block the event loop for long when a reader is slow.
   qos.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(0, 100000000);

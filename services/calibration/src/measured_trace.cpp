@@ -124,22 +124,4 @@ MeasuredTrace read_trace_csv(const std::string& path) {
   return trace;
 }
 
-MeasuredTick to_measured_tick(const TraceSample& sample) {
-  MeasuredTick tick;
-  tick.time_s = sample.time_s;
-  tick.pitch_rad = sample.state->trunk.pitch_rad;
-  tick.vx_mps = sample.state->trunk.vx_mps;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
-    const JointCommand& cmd = sample.output->commands[leg];
-    const LegState& ls = sample.state->legs[leg];
-    tick.legs[leg] = {cmd.hip_angle_rad, ls.hip_angle_rad, cmd.knee_flexion_rad, ls.knee_flexion_rad,
-                      (*sample.contacts)[leg], ls.foot_normal_force_n};
-  }
-  return tick;
-}
-
-TraceSink record_trace(MeasuredTrace& trace) {
-  return [&trace](const TraceSample& s) { trace.ticks.push_back(to_measured_tick(s)); };
-}
-
 }  // namespace cpgmatch::calibration

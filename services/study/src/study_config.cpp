@@ -1,4 +1,5 @@
 #include "cpgmatch/study/study_config.hpp"
+#include "cpgmatch/study/model_file.hpp"
 #include "cpgmatch/study/study_file_keys.hpp"
 
 #include <algorithm>
@@ -139,9 +140,12 @@ void parse_hardware(const YamlReader& r, StudyConfig& s) {
 
 StudyConfig parse(const YamlReader& r) {
   // The keys the manual lists (study_file_keys.cpp); `model`, `rollout_settings` and `base_parameters` are the
-  // study's objective, resolved by StudySpec (study_spec.hpp) and checked there.
+  // study's objective, resolved by StudySpec (study_spec.hpp) and checked there. Besides them, the text of a
+  // `model: FILE` that the submitting client appends (model_file.hpp): not a key people write.
   const auto keys = top_level_study_file_keys();
-  r.reject_unknown_keys(std::set<std::string>(keys.begin(), keys.end()));
+  std::set<std::string> known(keys.begin(), keys.end());
+  known.insert(kModelFileTextKey);
+  r.reject_unknown_keys(known);
   StudyConfig s;
   // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");

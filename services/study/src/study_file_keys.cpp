@@ -83,9 +83,10 @@ constexpr std::array kKeys{
                  "Known gaits to run first (parameter files like configs/params/default.yaml, relative to the study "
                  "file), as Optuna's enqueue_trial: they count in the budget and the model learns from them. "
                  "cpgmatch study enqueue ID --params F.yaml queues more into an open or stopped study."},
-    StudyFileKey{"model", "mapping", "configs/model/morti.yaml",
-                 "Overrides of single values of the robot model (e.g. {knee_spring: {stiffness_nm_per_rad: 20}}). "
-                 "The study's spec holds the whole resolved model."},
+    StudyFileKey{"model", "mapping, or a model file's path", "configs/model/morti.yaml",
+                 "Overrides of single values of the robot model (e.g. {knee_spring: {stiffness_nm_per_rad: 20}}), or a "
+                 "whole model file (e.g. one cpgmatch calibrate wrote), relative to the study file: the submitting "
+                 "client sends its content. The study's spec holds the whole resolved model."},
     StudyFileKey{"rollout_settings", "mapping", "configs/rollout.yaml",
                  "Overrides of the controller, feedback, contact sensing and cost settings (e.g. {cost: {weights: "
                  "{feedback: 4}}})."},

@@ -13,6 +13,7 @@
 
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/study/model_file.hpp"
 #include "cpgmatch/text.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 
@@ -172,12 +173,16 @@ void merge_overrides(nlohmann::json& target, const YamlReader& overrides) {
 // The study's own keys as a tree. Numbers as doubles (budget 150 and 150.0 are one study); keys whose
 // value is text stay the text as written (a study named 1.10, a robot 007).
 nlohmann::json study_section(const YAML::Node& root) {
-  static const std::set<std::string> kTextKeys = {"name",    "robot",          "terrain",    "acquisition",
+  // `model` is here as a file name only (model_file.hpp): the model's content is the spec's own section.
+  static const std::set<std::string> kTextKeys = {"name",  "model",   "robot",          "terrain",    "acquisition",
                                                   "initial_design", "liar", "cost_transform", "explore_on"};
   nlohmann::json study = nlohmann::json::object();
   for (const auto& entry : root) {
     const std::string key = entry.first.Scalar();
-    if (key == "model" || key == "rollout_settings" || key == "base_parameters") continue;
+    if ((key == "model" && !entry.second.IsScalar()) || key == "rollout_settings" || key == "base_parameters" ||
+        key == kModelFileTextKey) {
+      continue;
+    }
     // Enqueued gaits are trials of the study (stored with their values, phase "enqueued"), not its objective.
     if (key == "enqueue") continue;
     if (kTextKeys.count(key) > 0 && entry.second.IsScalar()) {
@@ -267,7 +272,18 @@ StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& s
   for (const auto& [name, value] : to_map(CpgParameters{})) {
     if (!base.contains(name)) base[name] = value;
   }
-  if (r.has(kModel)) merge_overrides(model, r.child(kModel));
+  if (r.has(kModel) && r.node()[kModel].IsScalar()) {
+    // `model: FILE`: the client sent the file's content (model_file.hpp); its errors name that file's lines.
+    const std::string file = r.node()[kModel].Scalar();
+    if (!r.has(kModelFileTextKey)) {
+      r.fail(kModel, fmt::format("'{}' names a model file, and this submit does not carry its content (`cpgmatch study "
+                                 "submit` reads the file beside the study file and sends it)",
+                                 file));
+    }
+    merge_overrides(model, YamlReader::from_string(r.require_string(kModelFileTextKey), file));
+  } else if (r.has(kModel)) {
+    merge_overrides(model, r.child(kModel));
+  }
   if (r.has(kSettings)) merge_overrides(settings, r.child(kSettings));
   if (r.has(kBaseParameters)) merge_overrides(base, r.child(kBaseParameters));
   numbers_to_double(model);
@@ -319,7 +335,11 @@ StudySpec::StudySpec(nlohmann::json tree, const std::string& source_name) : tree
 
 std::string StudySpec::to_study_yaml() const {
   nlohmann::json file = tree_[kStudy];
-  file[kModel] = tree_[kModel];
+  if (file.contains(kModel) && file[kModel].is_string()) {
+    file[kModelFileTextKey] = json_to_yaml(tree_[kModel]);  // the same content, so the same hash
+  } else {
+    file[kModel] = tree_[kModel];
+  }
   file[kSettings] = tree_[kSettings];
   file[kBaseParameters] = tree_[kBaseParameters];
   return fmt::format("# study spec {} (objective version {}): resubmitting this file gives the same spec\n{}",

@@ -13,7 +13,7 @@
 namespace cpgmatch::dds {
 
 enum class TopicId { kCandidates, kReports, kWorkers, kStudyState, kTrials, kCommands, kReplies, kEmergencyStop,
-                     kStudySpecs };
+                     kStudySpecs, kRolloutTraces };
 
 struct TopicInfo {
   const char* name;
@@ -38,6 +38,7 @@ template <> struct TopicOf<msg::StudyCommand> { static constexpr TopicId id = To
 template <> struct TopicOf<msg::CommandReply> { static constexpr TopicId id = TopicId::kReplies; };
 template <> struct TopicOf<msg::EmergencyStop> { static constexpr TopicId id = TopicId::kEmergencyStop; };
 template <> struct TopicOf<msg::StudySpecSample> { static constexpr TopicId id = TopicId::kStudySpecs; };
+template <> struct TopicOf<msg::RolloutTraceChunk> { static constexpr TopicId id = TopicId::kRolloutTraces; };
 
 // Seconds a worker's announcement stays alive without a heartbeat (DDS liveliness lease).
 inline constexpr double kWorkerLivelinessLease_s = 2.0;

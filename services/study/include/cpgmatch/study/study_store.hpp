@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cpgmatch/domain/rollout_report.hpp"
+#include "cpgmatch/domain/rollout_trace.hpp"
 
 struct sqlite3;
 
@@ -75,6 +76,12 @@ struct StoredAttempt {
   std::string outcome;
   nlohmann::json report;
   double reported_at_s = 0.0;
+};
+
+// A hardware rollout's trace as kept in the store's `traces` table (trace_table.cpp), with when it arrived.
+struct StoredTrace {
+  domain::RolloutTrace trace;
+  double received_at_s = 0.0;
 };
 
 struct StoredStudy {
@@ -149,6 +156,15 @@ class StudyStore {
   // optimizer checks this before it serves anything. Readers such as `cpgmatch analyze` do not need it.
   void require_writable() const;
 
+  // Keeps a hardware rollout's trace (the `traces` table). Refused, with the reason and nothing written, when
+  // its store, study or trial is not this store's or the attempt was never issued. That attempt's trace
+  // kept already (sent again to a restarted optimizer) is no refusal: nothing is written and
+  // `already_kept`, when given, says so. Throws StoreWriteError when it cannot be written.
+  std::optional<std::string> save_trace(const domain::RolloutTrace& trace, double now_s, bool* already_kept = nullptr);
+  // The study's kept traces, by trial and attempt (empty for a store older than the table). Throws
+  // std::runtime_error naming the trial when a stored trace is unreadable.
+  std::vector<StoredTrace> load_traces(int study_id) const;
+
   std::vector<StoredStudy> load_all() const;
   std::optional<StoredStudy> load(int study_id) const;
   const std::string& path() const { return path_; }
@@ -161,6 +177,7 @@ class StudyStore {
   void exec(const std::string& sql) const;
   void add_column_if_missing(const std::string& table, const std::string& column, const std::string& declaration);
   std::uint64_t read_or_make_store_id();
+  void create_trace_table();
   std::string path_;
   sqlite3* db_ = nullptr;
   std::uint64_t store_id_ = 0;

@@ -76,6 +76,9 @@ class WorkerLink {
   // acted on quickly), then once more as not accepting.
   void heartbeat_until(const std::function<bool()>& stop);
 
+  // The link's participant, for a worker's own topics (the robot agent's rollout traces).
+  dds::Participant& participant() { return participant_; }
+
   // After the rollouts have ended: gives reliable delivery of the last reports a moment, then leaves the
   // workers topic (the optimizer re-issues whatever was still assigned to this worker).
   void leave();

@@ -1,0 +1,90 @@
+#include "cpgmatch/dds/convert_trace.hpp"
+
+#include <limits>
+
+#include <fmt/format.h>
+
+namespace cpgmatch::dds {
+namespace {
+
+int id_from_wire(std::uint32_t v, const char* field) {
+  if (v > static_cast<std::uint32_t>(std::numeric_limits<int>::max())) {
+    throw WireError(fmt::format("{} = {} is out of range", field, v));
+  }
+  return static_cast<int>(v);
+}
+
+std::uint32_t id_to_wire(int v) { return v < 0 ? 0u : static_cast<std::uint32_t>(v); }
+
+msg::TraceTick tick_to_wire(const domain::MeasuredTick& t) {
+  msg::TraceTick w;
+  w.time_s(t.time_s);
+  w.pitch_rad(t.pitch_rad);
+  w.vx_mps(t.vx_mps);
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    const domain::MeasuredLeg& l = t.legs[leg];
+    w.hip_target_rad()[leg] = l.hip_target_rad;
+    w.hip_rad()[leg] = l.hip_rad;
+    w.knee_target_rad()[leg] = l.knee_target_rad;
+    w.knee_rad()[leg] = l.knee_rad;
+    w.contact()[leg] = l.contact;
+    w.foot_force_n()[leg] = l.foot_force_n;
+  }
+  return w;
+}
+
+domain::MeasuredTick tick_from_wire(const msg::TraceTick& w) {
+  domain::MeasuredTick t;
+  t.time_s = w.time_s();
+  t.pitch_rad = w.pitch_rad();
+  t.vx_mps = w.vx_mps();
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    t.legs[leg] = {w.hip_target_rad()[leg], w.hip_rad()[leg], w.knee_target_rad()[leg],
+                   w.knee_rad()[leg],       w.contact()[leg], w.foot_force_n()[leg]};
+  }
+  return t;
+}
+
+}  // namespace
+
+msg::RolloutTraceChunk to_wire(const domain::RolloutTraceChunk& c) {
+  msg::RolloutTraceChunk w;
+  w.store_id(c.id.store_id);
+  w.study_id(id_to_wire(c.id.study_id));
+  w.trial_id(id_to_wire(c.id.trial_id));
+  w.attempt(id_to_wire(c.id.attempt));
+  w.worker_id(c.worker_id);
+  w.chunk_index(c.chunk_index);
+  w.chunk_count(c.chunk_count);
+  w.total_ticks(c.total_ticks);
+  w.first_tick(c.first_tick);
+  w.control_rate_hz(c.control_rate_hz);
+  w.terrain(c.terrain);
+  w.seed(c.seed);
+  w.ticks_dropped(c.ticks_dropped);
+  w.parameters(to_wire(c.parameters));
+  w.ticks().reserve(c.ticks.size());
+  for (const auto& t : c.ticks) w.ticks().push_back(tick_to_wire(t));
+  return w;
+}
+
+domain::RolloutTraceChunk from_wire(const msg::RolloutTraceChunk& w) {
+  domain::RolloutTraceChunk c;
+  c.id = {w.store_id(), id_from_wire(w.study_id(), "study_id"), id_from_wire(w.trial_id(), "trial_id"),
+          id_from_wire(w.attempt(), "attempt")};
+  c.worker_id = w.worker_id().to_string();
+  c.chunk_index = w.chunk_index();
+  c.chunk_count = w.chunk_count();
+  c.total_ticks = w.total_ticks();
+  c.first_tick = w.first_tick();
+  c.control_rate_hz = w.control_rate_hz();
+  c.terrain = w.terrain().to_string();
+  c.seed = w.seed();
+  c.ticks_dropped = w.ticks_dropped();
+  c.parameters = from_wire(w.parameters());
+  c.ticks.reserve(w.ticks().size());
+  for (const auto& t : w.ticks()) c.ticks.push_back(tick_from_wire(t));
+  return c;
+}
+
+}  // namespace cpgmatch::dds
