@@ -85,11 +85,11 @@ struct Evaluation {
 };
 class AnswerEvaluator {
  public:
-  AnswerEvaluator(const study::StudySpec& hardware, int seeds) : spec_(hardware), seeds_(seeds) {}
+  AnswerEvaluator(study::StudySpec hardware, int seeds) : spec_(std::move(hardware)), seeds_(seeds) {}
   Evaluation evaluate(const Eigen::VectorXd& x);
 
  private:
-  const study::StudySpec& spec_;
+  const study::StudySpec spec_;  // its own copy: the evaluator outlives where it was made
   int seeds_;
   std::mutex mutex_;
   std::map<std::vector<double>, Evaluation> done_;

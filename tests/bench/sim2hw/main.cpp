@@ -9,7 +9,6 @@
 // answer of a simulated study of the study's budget on the scenario's model. Writes DIR/cells/SCENARIO-seedS.json
 // per cell (a cell already there is skipped, so an interrupted grid resumes), DIR/reference/SCENARIO.json,
 // and keeps every simulated study in DIR/cache/. Progress goes to stderr.
-#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +18,9 @@
 #include <memory>
 #include <mutex>
 #include <thread>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -44,6 +46,7 @@ struct Options {
   std::vector<int> reference_seeds = {0};
   int jobs = 1;
   int budget = 15;            // robot rollouts per strategy
+  int study_budget = 150;     // simulated rollouts per study (the study default; smaller only for a smoke run)
   int eval_seeds = 5;         // fresh hardware rollouts per answer
   int simulated_per_hardware = 30;
   int calibration_rollouts = 2;
@@ -63,28 +66,42 @@ void say(const std::string& line) {
 
 std::string model_path(const std::string& name) { return (fs::path(sim::config_dir()) / "model" / (name + ".yaml")).string(); }
 
-std::string study_yaml(int seed) { return fmt::format("name: sim2hw-bench\nseed: {}\n", seed); }
+int study_budget = 150;  // --study-budget
+std::string study_yaml(int seed) { return fmt::format("name: sim2hw-bench\nseed: {}\nbudget: {}\n", seed, study_budget); }
 
-// Runs the tasks on `jobs` threads; the first exception is rethrown once all have stopped.
-void run_parallel(const std::vector<std::function<void()>>& tasks, int jobs) {
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr failure;
-  std::mutex failure_mutex;
-  auto worker = [&] {
-    for (std::size_t i; (i = next++) < tasks.size();) {
+// Runs the tasks in `jobs` processes (task i in process i % jobs), each process one task at a time.
+// Processes, not threads: two ODE worlds stepped on two threads of this program at once stopped it with
+// "ODE INTERNAL ERROR 1: assertion current_job->m_prev_job_next_ptr == NULL failed in ReleaseAJob()" in
+// ODE's threading code. A child's results reach the parent through the files it writes (cache, cells).
+// Returns false when a child failed (it said why on stderr).
+bool run_in_processes(const std::vector<std::function<void()>>& tasks, int jobs) {
+  if (jobs <= 1) {
+    for (const auto& t : tasks) t();
+    return true;
+  }
+  std::vector<pid_t> children;
+  for (int j = 0; j < jobs; ++j) {
+    const pid_t pid = fork();
+    if (pid < 0) throw std::runtime_error("fork failed");
+    if (pid == 0) {
+      int status = 0;
       try {
-        tasks[i]();
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(failure_mutex);
-        if (!failure) failure = std::current_exception();
-        next = tasks.size();
+        for (std::size_t i = static_cast<std::size_t>(j); i < tasks.size(); i += static_cast<std::size_t>(jobs)) tasks[i]();
+      } catch (const std::exception& e) {
+        say(fmt::format("error: {}", e.what()));
+        status = 1;
       }
+      std::_Exit(status);
     }
-  };
-  std::vector<std::thread> threads;
-  for (int j = 0; j < std::max(1, jobs); ++j) threads.emplace_back(worker);
-  for (auto& t : threads) t.join();
-  if (failure) std::rethrow_exception(failure);
+    children.push_back(pid);
+  }
+  bool ok = true;
+  for (const pid_t pid : children) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ok = ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  }
+  return ok;
 }
 
 void write_json(const fs::path& file, const nlohmann::json& j) {
@@ -150,15 +167,13 @@ void run_cell(const Options& o, Scenario& scenario, int seed, const study::Study
                     j["wall_s"].get<double>()));
     strategies.push_back(std::move(j));
   };
-  const std::string budget = fmt::format("budget: {}\n", o.budget);
+  const std::string hardware_study = fmt::format("name: sim2hw-bench\nseed: {}\nbudget: {}\nexplore_on: hardware\n", seed, o.budget);
   record("sim_optimum", [&](Robot& r) { return transferred_optimum(simulated, r); });
-  record("hardware_bo", [&](Robot& r) {
-    return hardware_only(spec_on(model_path(scenario.name), base + budget + "explore_on: hardware\n"), r);
-  });
+  record("hardware_bo", [&](Robot& r) { return hardware_only(spec_on(model_path(scenario.name), hardware_study), r); });
   // Not a study default: the default initial design (15) fills a 15-rollout budget with random points, so
   // this is hardware-only BO with a model for two thirds of its budget.
   record("hardware_bo_5_initial", [&](Robot& r) {
-    return hardware_only(spec_on(model_path(scenario.name), base + budget + "explore_on: hardware\ninitial_points: 5\n"), r);
+    return hardware_only(spec_on(model_path(scenario.name), hardware_study + "initial_points: 5\n"), r);
   });
   for (const std::string strategy : {"transfer", "multi_fidelity"}) {
     record(strategy, [&](Robot& r) {
@@ -237,7 +252,9 @@ int run(const Options& o) {
       });
     }
   }
-  run_parallel(tasks, o.jobs);
+  // The studies in parallel processes (each writes its cache file), then read back here from the cache.
+  if (!run_in_processes(tasks, o.jobs)) throw std::runtime_error("a simulated study failed (see above)");
+  run_in_processes(tasks, 1);
   for (auto& [name, ref] : references) {
     double best = std::numeric_limits<double>::infinity();
     for (const auto& s : ref["studies"]) best = std::min(best, s["evaluation"]["mean"].get<double>());
@@ -253,7 +270,7 @@ int run(const Options& o) {
       tasks.push_back([&, name, seed] { run_cell(o, scenarios.at(name), seed, *simulation.at(seed), simulated.at(seed)); });
     }
   }
-  run_parallel(tasks, o.jobs);
+  if (!run_in_processes(tasks, o.jobs)) throw std::runtime_error("a cell failed (see above)");
   say("done");
   return 0;
 }
@@ -268,7 +285,7 @@ int main(int argc, char** argv) {
   app.add_option("--seeds", o.seeds, "study seeds")->delimiter(',')->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--reference-seeds", o.reference_seeds, "seeds of the reference studies (the best answer counts)")
       ->delimiter(',')->check(CLI::NonNegativeNumber)->capture_default_str();
-  app.add_option("--jobs", o.jobs, "cells and studies at once (CPU is shared: at most 2)")->check(CLI::Range(1, 2))->capture_default_str();
+  app.add_option("--jobs", o.jobs, "cells and studies at once processes (CPU is shared: at most 2)")->check(CLI::Range(1, 2))->capture_default_str();
   app.add_option("--budget", o.budget, "robot rollouts per strategy")->check(CLI::Range(2, 100))->capture_default_str();
   app.add_option("--eval-seeds", o.eval_seeds, "fresh robot rollouts per answer (not counted)")->check(CLI::Range(1, 50))->capture_default_str();
   app.add_option("--simulated-per-hardware", o.simulated_per_hardware,
@@ -277,6 +294,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 10))->capture_default_str();
   app.add_option("--grid", o.grid_points, "calibration grid points per value (docs/calibration.md)")->check(CLI::Range(0, 50))->capture_default_str();
   app.add_option("--window", o.window_s, "seconds of each trace fitted")->check(CLI::Range(1.5, 20.0))->capture_default_str();
+  app.add_option("--study-budget", study_budget, "simulated rollouts per study (150, the default; less only to try the program)")
+      ->check(CLI::Range(20, 1000))->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
