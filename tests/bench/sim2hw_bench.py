@@ -157,7 +157,7 @@ def tables(cells, refs):
                        f"{cal['cost_before']:.3g} -> {cal['cost_after']:.3g} |")
     out.append("")
     out.append("### The multi-fidelity model's rho and constant discrepancy at the end of each study\n")
-    out.append("| scenario | seed | rho | beta_d (cost units) |")
+    out.append("| scenario | seed | rho | beta_d (log cost: the study models log(cost)) |")
     out.append("| --- | --- | --- | --- |")
     for c in cells:
         s = by_strategy(c).get("multi_fidelity")
