@@ -66,6 +66,11 @@ def load(results):
     return cells, refs
 
 
+def num(x, spec):
+    # JSON has no NaN: the program writes null (e.g. an sd that Ceres' covariance could not give).
+    return "NaN" if x is None else format(x, spec)
+
+
 def by_strategy(cell):
     return {s["name"]: s for s in cell["strategies"]}
 
@@ -153,7 +158,7 @@ def tables(cells, refs):
             if v["name"] in NOT_IDENTIFIABLE:
                 note += " (not identifiable)"
             out.append(f"| {c['scenario']} | {c['seed']} | `{v['name']}` | {v['truth']:.4g} | {v['estimate']:.4g} | "
-                       f"{100 * v['relative_error']:+.1f}% | {v['sd']:.2g} | {note} | "
+                       f"{100 * v['relative_error']:+.1f}% | {num(v['sd'], '.2g')} | {note} | "
                        f"{cal['cost_before']:.3g} -> {cal['cost_after']:.3g} |")
     out.append("")
     out.append("### The multi-fidelity model's rho and constant discrepancy at the end of each study\n")
