@@ -11,7 +11,8 @@ Usage: tests/bench/sim2hw_bench.py BUILD_DIR [--results DIR] [--docs DIR] [--rep
   results.json (the cells and references together) and one plot per scenario, SCENARIO.png: the hardware
   cost of each strategy's answer against the hardware rollouts spent (mean over seeds; a fall in the
   evaluation counts with its fall cost), and the scenario's own optimum as a line.
-Run by hand: the full grid (5 scenarios x 5 seeds) takes about an hour with --jobs 2 on an idle 2-core machine.
+Run by hand: 5 scenarios x 2 seeds took 44 min with --jobs 2 on the shared 2-core machine (under load from
+other builds); the full grid (5 seeds) about 2.5 times as long.
 """
 import glob
 import json
