@@ -222,7 +222,6 @@ int run(const Options& o) {
   // Phase 1: the simulated studies every cell needs (morti.yaml per seed) and the references.
   std::map<int, std::unique_ptr<study::StudySpec>> simulation;
   std::map<int, SimulatedStudy> simulated;
-  std::mutex results_mutex;
   std::vector<std::function<void()>> tasks;
   for (const int seed : o.seeds) {
     simulation[seed] = std::make_unique<study::StudySpec>(spec_on(model_path("morti"), study_yaml(seed)));
@@ -230,7 +229,6 @@ int run(const Options& o) {
       say(fmt::format("simulated study on morti, seed {} ...", seed));
       SimulatedStudy s = cached_simulated_study(*simulation.at(seed), cache);
       say(fmt::format("simulated study on morti, seed {}: answer predicted {:.3f}", seed, s.answer_predicted));
-      std::lock_guard<std::mutex> lock(results_mutex);
       simulated.emplace(seed, std::move(s));
     });
   }
@@ -244,7 +242,6 @@ int run(const Options& o) {
         const SimulatedStudy study = cached_simulated_study(spec, cache);
         const Evaluation e = s.evaluator->evaluate(study.answer);
         say(fmt::format("reference: {} seed {}: hardware cost {:.3f} ({} falls)", name, seed, e.mean(), e.falls));
-        std::lock_guard<std::mutex> lock(results_mutex);
         references[name]["studies"].push_back({{"seed", seed},
                                                {"answer", named_json(spec.config().space, study.answer)},
                                                {"predicted", study.answer_predicted},
