@@ -174,6 +174,7 @@ struct OdePlant::Impl {
     double normal[3];
   };
   std::vector<ActiveContact> contacts_this_step;
+  dThreadingImplementationID stepping = nullptr;  // this world's own step scheduler (see the constructor)
   double time = 0.0;
   double dt = 0.001;
   double belt_travel = 0.0;  // metres the treadmill belt has moved backwards
@@ -187,6 +188,12 @@ struct OdePlant::Impl {
     init_ode_once();
     dt = 1.0 / model.physics_rate_hz;
     world = dWorldCreate();
+    // Each world steps with its own (self-threaded, i.e. single-threaded) job scheduler. Without one, every
+    // world shares ODE's process-wide default scheduler, and two worlds stepped at once on two threads corrupt
+    // its job list (ODE INTERNAL ERROR in ReleaseAJob; tests/physics/test_parallel_worlds.cpp). The
+    // scheduler only orders the same work, so what a step computes is unchanged.
+    stepping = dThreadingAllocateSelfThreadedImplementation();
+    dWorldSetStepThreadingImplementation(world, dThreadingImplementationGetFunctions(stepping), stepping);
     dWorldSetGravity(world, 0, -model.gravity_m_s2, 0);
     dWorldSetERP(world, 0.2);
     dWorldSetCFM(world, 1e-9);
@@ -203,6 +210,7 @@ struct OdePlant::Impl {
     dSpaceDestroy(terrain_space);  // destroys the terrain geoms it holds
     for (auto& leg : legs) dGeomDestroy(leg.toe);
     dWorldDestroy(world);
+    dThreadingFreeImplementation(stepping);
   }
 
   void add_static_box(double x_min, double x_max, double top_y, double bottom_y) {
