@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "wire_numbers.hpp"
+
 namespace cpgmatch::dds {
 
 namespace {
@@ -39,10 +41,12 @@ domain::WorkerKind kind_from_wire(msg::WorkerKind k) {
   throw WireError(fmt::format("worker kind = {} is not a WorkerKind", static_cast<int>(k)));
 }
 
+}  // namespace
+
+namespace wire {
+
 domain::AttemptId attempt_id(std::uint64_t store_id, std::uint32_t study_id, std::uint32_t trial_id,
                              std::uint32_t attempt) {
-  // Ids are 32-bit unsigned on the wire and int in the domain: a value past INT_MAX is not one this service
-  // ever issued, and refused here rather than wrapped into a negative id.
   for (const auto& [name, v] : {std::pair<const char*, std::uint32_t>{"study_id", study_id},
                                 {"trial_id", trial_id},
                                 {"attempt", attempt}}) {
@@ -53,11 +57,14 @@ domain::AttemptId attempt_id(std::uint64_t store_id, std::uint32_t study_id, std
   return {store_id, static_cast<int>(study_id), static_cast<int>(trial_id), static_cast<int>(attempt)};
 }
 
-std::uint32_t u32(int v) { return v < 0 ? 0u : static_cast<std::uint32_t>(v); }
-// A count from the wire as the domain's int: a value past INT_MAX (no real count) is held at INT_MAX.
 int clamped(std::uint32_t v) { return static_cast<int>(std::min<std::uint32_t>(v, std::numeric_limits<int>::max())); }
 
-}  // namespace
+}  // namespace wire
+
+using wire::attempt_id;
+using wire::clamped;
+using wire::u32;
+
 
 std::optional<domain::AttemptId> attempt_of(const msg::Candidate& c) {
   try {

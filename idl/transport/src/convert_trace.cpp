@@ -4,17 +4,10 @@
 
 #include <fmt/format.h>
 
+#include "wire_numbers.hpp"
+
 namespace cpgmatch::dds {
 namespace {
-
-int id_from_wire(std::uint32_t v, const char* field) {
-  if (v > static_cast<std::uint32_t>(std::numeric_limits<int>::max())) {
-    throw WireError(fmt::format("{} = {} is out of range", field, v));
-  }
-  return static_cast<int>(v);
-}
-
-std::uint32_t id_to_wire(int v) { return v < 0 ? 0u : static_cast<std::uint32_t>(v); }
 
 msg::TraceTick tick_to_wire(const domain::MeasuredTick& t) {
   msg::TraceTick w;
@@ -50,9 +43,9 @@ domain::MeasuredTick tick_from_wire(const msg::TraceTick& w) {
 msg::RolloutTraceChunk to_wire(const domain::RolloutTraceChunk& c) {
   msg::RolloutTraceChunk w;
   w.store_id(c.id.store_id);
-  w.study_id(id_to_wire(c.id.study_id));
-  w.trial_id(id_to_wire(c.id.trial_id));
-  w.attempt(id_to_wire(c.id.attempt));
+  w.study_id(wire::u32(c.id.study_id));
+  w.trial_id(wire::u32(c.id.trial_id));
+  w.attempt(wire::u32(c.id.attempt));
   w.worker_id(c.worker_id);
   w.chunk_index(c.chunk_index);
   w.chunk_count(c.chunk_count);
@@ -70,8 +63,7 @@ msg::RolloutTraceChunk to_wire(const domain::RolloutTraceChunk& c) {
 
 domain::RolloutTraceChunk from_wire(const msg::RolloutTraceChunk& w) {
   domain::RolloutTraceChunk c;
-  c.id = {w.store_id(), id_from_wire(w.study_id(), "study_id"), id_from_wire(w.trial_id(), "trial_id"),
-          id_from_wire(w.attempt(), "attempt")};
+  c.id = wire::attempt_id(w.store_id(), w.study_id(), w.trial_id(), w.attempt());
   c.worker_id = w.worker_id().to_string();
   c.chunk_index = w.chunk_index();
   c.chunk_count = w.chunk_count();

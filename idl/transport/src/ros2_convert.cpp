@@ -3,11 +3,13 @@
 #include <stdexcept>
 #include <vector>
 
+#include "wire_numbers.hpp"
+
 namespace cpgmatch::dds {
 
 namespace {
 
-std::uint32_t u32(int v) { return v < 0 ? 0u : static_cast<std::uint32_t>(v); }
+using wire::u32;
 
 // Named parameters as the .msg files carry them: two parallel arrays, names and values.
 template <class Msg>
