@@ -40,21 +40,25 @@ struct StudyClient::Impl {
     state_reader = std::make_unique<dds::Reader<msg::StudyState>>(participant, [this](const msg::StudyState& s) {
       std::lock_guard<std::mutex> lock(mutex);
       if (auto j = json_of(s)) study_states[static_cast<int>(s.study_id())] = std::move(*j);
+      ++revision;
     });
     worker_reader = std::make_unique<dds::Reader<msg::WorkerAnnouncement>>(
         participant,
         [this](const msg::WorkerAnnouncement& w) {
           std::lock_guard<std::mutex> lock(mutex);
           if (auto j = json_of(w)) live_workers[w.worker_id().to_string()] = std::move(*j);
+          ++revision;
         },
         [this](const msg::WorkerAnnouncement& key, dds::InstanceGone) {
           std::lock_guard<std::mutex> lock(mutex);
           live_workers.erase(key.worker_id().to_string());
+          ++revision;
         });
     if (read_trials) {
       trial_reader = std::make_unique<dds::Reader<msg::TrialRecord>>(participant, [this](const msg::TrialRecord& t) {
         std::lock_guard<std::mutex> lock(mutex);
         if (auto j = json_of(t)) trial_records[static_cast<int>(t.study_id())][static_cast<int>(t.trial_id())] = std::move(*j);
+        ++revision;
       });
     }
   }
@@ -111,6 +115,7 @@ struct StudyClient::Impl {
   std::map<int, nlohmann::json> study_states;
   std::map<std::string, nlohmann::json> live_workers;
   std::map<int, std::map<int, nlohmann::json>> trial_records;
+  std::uint64_t revision = 0;  // +1 for every state, worker or trial sample taken in
   // Readers last: their callbacks use the members above.
   std::unique_ptr<dds::Reader<msg::CommandReply>> replies;
   std::unique_ptr<dds::Reader<msg::StudyState>> state_reader;
@@ -198,6 +203,11 @@ bool StudyClient::wait_for_study(int study_id, double timeout_s) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   return false;
+}
+
+std::uint64_t StudyClient::revision() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->revision;
 }
 
 std::map<int, nlohmann::json> StudyClient::states() const {

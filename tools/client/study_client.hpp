@@ -3,6 +3,7 @@
 // include Fast DDS headers.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <string>
@@ -51,6 +52,8 @@ class StudyClient {
   std::map<int, nlohmann::json> states() const;             // latest state per study (to_json(StudyState))
   std::map<std::string, nlohmann::json> workers() const;    // live workers by id
   std::vector<nlohmann::json> trials(int study_id) const;   // trial records by trial id
+  // Grows with every state, worker or trial sample taken in: equal revisions, equal views (nothing to redraw).
+  std::uint64_t revision() const;
 
  private:
   struct Impl;

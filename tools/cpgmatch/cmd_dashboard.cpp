@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <optional>
 #include <thread>
 
 #include <fmt/format.h>
@@ -89,9 +90,16 @@ void add_dashboard_command(CLI::App& app) {
     std::signal(SIGTERM, [](int) { g_stop = 1; });
     std::signal(SIGPIPE, SIG_IGN);  // a browser that closes its tab mid-write must not end the program
     std::thread http([&server] { server.serve(); });
+    // A snapshot is built only when the client took in a sample since the last one (or the optimizer came or
+    // went): an idle domain costs no JSON work.
+    std::optional<std::pair<std::uint64_t, bool>> drawn;
     while (!g_stop) {
       const bool optimizer_heard = client.wait_for_optimizer(0.0, 0.0);
-      feed.publish(dashboard::snapshot_json(view_of(client, domain, optimizer_heard)).dump());
+      const std::pair<std::uint64_t, bool> now{client.revision(), optimizer_heard};
+      if (drawn != now) {
+        feed.publish(dashboard::snapshot_json(view_of(client, domain, optimizer_heard)).dump());
+        drawn = now;
+      }
       std::this_thread::sleep_for(kRefresh);
     }
     feed.close();  // ends the open event streams, so that stop() can join the server's threads
