@@ -187,6 +187,10 @@ void WorkerLink::leave() {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   std::lock_guard<std::mutex> lock(announce_mutex_);
   announcements_.unregister(last_announcement_);
+  // The unregister is the worker's goodbye (the optimizer logs a clean leave for it, and re-issues at once);
+  // a participant deleted before the optimizer acknowledged it sometimes lost it, and the worker was then
+  // declared silent 2.5 s later (integration.two_workers, 1 run in about 20 under a full ctest -j2).
+  announcements_.wait_for_acknowledgments(std::chrono::milliseconds(1000));
 }
 
 }  // namespace cpgmatch::worker
