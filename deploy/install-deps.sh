@@ -28,6 +28,8 @@ PACKAGES=(
   # installation and packaging: groff renders the man pages in the install test, dpkg-shlibdeps finds the
   # .deb's dependencies, network namespaces for the cluster test
   groff-base dpkg-dev iproute2
+  # robot descriptions (configs/robots/*/robot.urdf) are parsed with urdfdom
+  liburdfdom-dev
 )
 
 missing=()
