@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -26,17 +27,19 @@ void validate(const ContactSensorConfig& c) {
   if (const auto p = find_problem(c)) throw InputError(fmt::format("contact_sensor.{}: {}", p->field, p->reason));
 }
 
-ContactSensor::ContactSensor(ContactSensorConfig config, std::uint64_t seed) : config_(config), rng_(seed) {
+ContactSensor::ContactSensor(ContactSensorConfig config, std::uint64_t seed, std::size_t leg_count)
+    : config_(config),
+      rng_(seed),
+      latest_(leg_count, true),
+      raw_(leg_count, true),
+      debounced_(leg_count, true),
+      raw_since_s_(leg_count, 0.0) {
   // The latency spans latency_s x poll_rate_hz polls; twice that and a margin, so that a caller polling a
   // little faster than configured is still served in order.
   const double polls_in_flight = std::isfinite(config_.latency_s * config_.poll_rate_hz)
                                      ? std::max(0.0, config_.latency_s * config_.poll_rate_hz)
                                      : 0.0;
-  pending_.resize(static_cast<std::size_t>(std::min(2.0 * polls_in_flight, 1e6)) + 4);
-  latest_.fill(true);
-  raw_.fill(true);
-  debounced_.fill(true);
-  raw_since_s_.fill(0.0);
+  pending_.resize(static_cast<std::size_t>(std::min(2.0 * polls_in_flight, 1e6)) + 4, Sample{0.0, PerLeg<bool>(leg_count, true)});
 }
 
 bool ContactSensor::debounce(int leg, double time_s, double force_n) {
@@ -53,9 +56,11 @@ bool ContactSensor::debounce(int leg, double time_s, double force_n) {
 }
 
 PerLeg<bool> ContactSensor::poll(double time_s, const PerLeg<double>& normal_forces_n) {
-  Sample sample{time_s, {}};
+  const std::size_t n = latest_.size();
+  if (normal_forces_n.size() != n) throw std::invalid_argument("ContactSensor::poll: one force per leg");
+  Sample sample{time_s, PerLeg<bool>(n)};
   std::normal_distribution<double> noise(0.0, config_.noise_std_n);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < n; ++leg) {
     const double force = normal_forces_n[leg] + (config_.noise_std_n > 0.0 ? noise(rng_) : 0.0);
     sample.contact[leg] = debounce(leg, time_s, force);
   }

@@ -70,13 +70,15 @@ double periodicity_term(const std::vector<double>& pitch_rad, double sample_rate
 double contact_term(const std::vector<PerLeg<bool>>& contacts, double sample_rate_hz, double cpg_frequency_hz) {
   if (contacts.size() < 2) return 0.0;
   const double steps = cpg_frequency_hz * contacts.size() / sample_rate_hz;  // f * T
+  const std::size_t legs = contacts.front().size();
+  if (legs == 0) return 0.0;
   double extra = 0.0;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < legs; ++leg) {
     int changes = 0;
     for (std::size_t i = 1; i < contacts.size(); ++i) changes += contacts[i][leg] != contacts[i - 1][leg];
     extra += std::max(0.0, changes - 2.0 * steps);
   }
-  return extra / (2.0 * kNumLegs * steps);
+  return extra / (2.0 * static_cast<double>(legs) * steps);
 }
 
 double CostConfig::non_fall_bound(double expected_pitch_hz) const {
@@ -102,10 +104,11 @@ CostBreakdown CostRecorder::evaluate(double cpg_frequency_hz, double expected_pi
   contacts.reserve(samples_.size());
   double active[4] = {0, 0, 0, 0};
   double hip_torque = 0.0, knee_torque = 0.0;
+  const std::size_t legs = samples_.front().contact.size();
   for (const auto& s : samples_) {
     pitch.push_back(s.pitch_rad);
     contacts.push_back(s.contact);
-    for (int leg = 0; leg < kNumLegs; ++leg) {
+    for (std::size_t leg = 0; leg < legs; ++leg) {
       active[0] += s.activity[leg].late_touchdown;
       active[1] += s.activity[leg].early_touchdown;
       active[2] += s.activity[leg].early_toeoff;
@@ -114,7 +117,7 @@ CostBreakdown CostRecorder::evaluate(double cpg_frequency_hz, double expected_pi
       knee_torque += s.abs_knee_torque_nm[leg];
     }
   }
-  const double per_leg_samples = static_cast<double>(samples_.size()) * kNumLegs;
+  const double per_leg_samples = static_cast<double>(samples_.size()) * static_cast<double>(std::max<std::size_t>(legs, 1));
   out.feedback_fraction = {active[0] / per_leg_samples, active[1] / per_leg_samples,
                            active[2] / per_leg_samples, active[3] / per_leg_samples};
   const auto& ff = out.feedback_fraction;

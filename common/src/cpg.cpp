@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -22,12 +23,12 @@ double wrap_half(double x) { return x - std::floor(x + 0.5); }
 
 Gait Gait::named(std::string_view name) {
   // Offsets are in cycles relative to the front-left leg.
-  if (name == "trot") return {"trot", {0.0, 0.5, 0.5, 0.0}};
-  if (name == "pace") return {"pace", {0.0, 0.5, 0.0, 0.5}};
-  if (name == "bound") return {"bound", {0.0, 0.0, 0.5, 0.5}};
-  if (name == "pronk") return {"pronk", {0.0, 0.0, 0.0, 0.0}};
+  if (name == "trot") return {"trot", PerLeg<double>{0.0, 0.5, 0.5, 0.0}};
+  if (name == "pace") return {"pace", PerLeg<double>{0.0, 0.5, 0.0, 0.5}};
+  if (name == "bound") return {"bound", PerLeg<double>{0.0, 0.0, 0.5, 0.5}};
+  if (name == "pronk") return {"pronk", PerLeg<double>{0.0, 0.0, 0.0, 0.0}};
   // Lateral-sequence walk: HL, FL, HR, FR a quarter cycle apart.
-  if (name == "walk") return {"walk", {0.0, 0.5, 0.75, 0.25}};
+  if (name == "walk") return {"walk", PerLeg<double>{0.0, 0.5, 0.75, 0.25}};
   throw InputError(fmt::format("unknown gait '{}' (known: trot, walk, pace, bound, pronk)", name));
 }
 
@@ -41,22 +42,25 @@ PhaseOscillatorNetwork::PhaseOscillatorNetwork(Gait gait, double coupling_gain_p
 void PhaseOscillatorNetwork::reset() { reset(gait_.phase_offsets); }
 
 void PhaseOscillatorNetwork::reset(const PerLeg<double>& phases) {
-  for (int i = 0; i < kNumLegs; ++i) phases_[i] = wrap_unit(phases[i]);
-  cycles_.fill(0);
+  if (phases.size() != gait_.leg_count()) throw std::invalid_argument("reset: one phase per leg of the gait");
+  phases_ = PerLeg<double>(phases.size());
+  cycles_ = PerLeg<long>(phases.size(), 0);
+  for (std::size_t i = 0; i < phases.size(); ++i) phases_[i] = wrap_unit(phases[i]);
 }
 
 void PhaseOscillatorNetwork::step(double dt_s, double frequency_hz, const PerLeg<double>& rates) {
-  PerLeg<double> velocity{};
-  for (int i = 0; i < kNumLegs; ++i) {
+  const std::size_t n = phases_.size();
+  PerLeg<double> velocity(n);
+  for (std::size_t i = 0; i < n; ++i) {
     double coupling = 0.0;
-    for (int j = 0; j < kNumLegs; ++j) {
+    for (std::size_t j = 0; j < n; ++j) {
       if (j == i) continue;
       const double desired = gait_.phase_offsets[j] - gait_.phase_offsets[i];
       coupling += std::sin(kTwoPi * (phases_[j] - phases_[i] - desired));
     }
     velocity[i] = std::max(0.0, std::clamp(rates[i], 0.0, 1.0) * frequency_hz + coupling_gain_ * coupling);
   }
-  for (int i = 0; i < kNumLegs; ++i) {
+  for (std::size_t i = 0; i < n; ++i) {
     const double next = phases_[i] + dt_s * velocity[i];
     const double wrapped = wrap_unit(next);
     if (next >= 1.0) ++cycles_[i];
@@ -67,8 +71,8 @@ void PhaseOscillatorNetwork::step(double dt_s, double frequency_hz, const PerLeg
 
 double PhaseOscillatorNetwork::locking_error() const {
   double worst = 0.0;
-  for (int i = 0; i < kNumLegs; ++i) {
-    for (int j = 0; j < kNumLegs; ++j) {
+  for (std::size_t i = 0; i < phases_.size(); ++i) {
+    for (std::size_t j = 0; j < phases_.size(); ++j) {
       const double actual = phases_[j] - phases_[i];
       const double desired = gait_.phase_offsets[j] - gait_.phase_offsets[i];
       worst = std::max(worst, std::abs(wrap_half(actual - desired)));
@@ -77,17 +81,22 @@ double PhaseOscillatorNetwork::locking_error() const {
   return worst;
 }
 
-int pitch_harmonic(const Gait& gait) {
-  auto pair_is_half_cycle_symmetric = [&](int a, int b) {
-    // Two legs of one girdle: the half-cycle shift maps a onto b (or each onto itself, a pronking pair).
-    const double d = wrap_half(gait.phase_offsets[b] - gait.phase_offsets[a]);
-    return std::abs(std::abs(d) - 0.5) < 1e-9;
-  };
-  return pair_is_half_cycle_symmetric(kFrontLeft, kFrontRight) && pair_is_half_cycle_symmetric(kHindLeft, kHindRight) ? 2 : 1;
+int pitch_harmonic(const Gait& gait, const LegLayout& legs) {
+  // Every leg must have a leg of its own group half a cycle away.
+  for (std::size_t a = 0; a < gait.leg_count(); ++a) {
+    bool mapped = false;
+    for (std::size_t b = 0; b < gait.leg_count() && !mapped; ++b) {
+      if (legs.group_of.at(a) != legs.group_of.at(b)) continue;
+      const double d = wrap_half(gait.phase_offsets[b] - gait.phase_offsets[a]);
+      mapped = std::abs(std::abs(d) - 0.5) < 1e-9;
+    }
+    if (!mapped) return 1;
+  }
+  return 2;
 }
 
-StepTiming step_timing(const CpgParameters& params, int leg) {
-  const double duty = is_front(leg) ? params.duty_factor_front : params.duty_factor_hind;
+StepTiming step_timing(const CpgParameters& params, const LegLayout& legs, int leg) {
+  const double duty = legs.uses_hind_duty_factor(leg) ? params.duty_factor_hind : params.duty_factor_front;
   const double swing = 1.0 - duty;
   StepTiming t{};
   t.duty_factor = duty;

@@ -45,11 +45,12 @@ EnergyMeasures EnergyRecorder::evaluate(double distance_m, double min_distance_m
   if (samples_.size() < 2) return out;
   const DcMotorLine* hip_motor = model_ ? &model_->hip : nullptr;
   const DcMotorLine* knee_motor = model_ ? &model_->knee : nullptr;
-  PerLeg<JointIntegral> hip{}, knee{};
+  const std::size_t legs = samples_.front().hip.size();
+  PerLeg<JointIntegral> hip(legs), knee(legs);
   for (std::size_t i = 0; i < samples_.size(); ++i) {
     const EnergySample& s = samples_[i];
     const double held = i + 1 < samples_.size() ? samples_[i + 1].time_s - s.time_s : 0.0;
-    for (int leg = 0; leg < kNumLegs; ++leg) {
+    for (std::size_t leg = 0; leg < legs; ++leg) {
       hip[leg].hold(s.hip[leg], held, hip_motor);
       knee[leg].hold(s.knee[leg], held, knee_motor);
       hip[leg].torque_sum += s.hip[leg].torque_nm;
@@ -58,7 +59,9 @@ EnergyMeasures EnergyRecorder::evaluate(double distance_m, double min_distance_m
   }
   const bool modelled = model_.has_value();
   double hip_work = 0.0, knee_work = 0.0, joule = 0.0, electrical = 0.0, signed_torque = 0.0;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  out.hip = PerLeg<JointEnergy>(legs);
+  out.knee = PerLeg<JointEnergy>(legs);
+  for (std::size_t leg = 0; leg < legs; ++leg) {
     out.hip[leg] = hip[leg].result(samples_.size(), modelled);
     out.knee[leg] = knee[leg].result(samples_.size(), modelled);
     hip_work += out.hip[leg].positive_work_j;  // NaN, when unmeasured or without a model, stays NaN

@@ -65,7 +65,9 @@ std::optional<std::string> impossible_motion(const TimedTrunk& previous, const P
 EnergySample energy_sample(const PlantState& s) {
   EnergySample e;
   e.time_s = s.time_s;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  e.hip = PerLeg<JointDrive>(s.legs.size());
+  e.knee = PerLeg<JointDrive>(s.legs.size());
+  for (std::size_t leg = 0; leg < s.legs.size(); ++leg) {
     e.hip[leg] = {s.legs[leg].hip_torque_nm, s.legs[leg].hip_speed_rad_s};
     e.knee[leg] = {s.legs[leg].knee_torque_nm, s.legs[leg].knee_motor_speed_rad_s};
   }
@@ -87,8 +89,8 @@ std::optional<PlantState> RolloutClock::sense(long step, const Plant& plant, Con
   if (!poll && !control) return std::nullopt;
   PlantState state = plant.state();
   if (poll) {
-    PerLeg<double> forces{};
-    for (int leg = 0; leg < kNumLegs; ++leg) forces[leg] = state.legs[leg].foot_normal_force_n;
+    PerLeg<double> forces(state.legs.size());
+    for (std::size_t leg = 0; leg < state.legs.size(); ++leg) forces[leg] = state.legs[leg].foot_normal_force_n;
     contacts = sensor.poll(state.time_s, forces);
   }
   if (!control) return std::nullopt;
@@ -131,7 +133,11 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   const double total_time = settings.entrain_s + settings.eval_s;
 
   CpgController controller(params, settings.controller);
-  ContactSensor sensor(settings.contact_sensor, seed);
+  const std::size_t legs = controller.leg_count();
+  if (plant.state().legs.size() != legs) {
+    throw InputError(fmt::format("run_rollout: the plant has {} legs, the controller's robot {}", plant.state().legs.size(), legs));
+  }
+  ContactSensor sensor(settings.contact_sensor, seed, legs);
   CostRecorder recorder(settings.cost);
   EnergyRecorder energy(plant.energy_model());
   const auto eval_samples = static_cast<std::size_t>((total_steps - eval_start_step) / clock.control_every() + 2);
@@ -140,7 +146,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
   RolloutResult result;
   result.params = params;
 
-  PerLeg<bool> contacts{};
+  PerLeg<bool> contacts(legs, true);
   ControllerOutput output;
   bool commanded = false;  // output holds a command already sent to the plant
   double tracking_sq_sum = 0.0;
@@ -175,7 +181,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
         break;
       }
       if (commanded && state.time_s >= settings.controller.startup_ramp_s) {
-        for (int leg = 0; leg < kNumLegs; ++leg) {
+        for (std::size_t leg = 0; leg < legs; ++leg) {
           if (output.commands[leg].hip_passive) continue;
           const double error = output.commands[leg].hip_angle_rad - state.legs[leg].hip_angle_rad;
           tracking_sq_sum += error * error;
@@ -192,7 +198,9 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
         sample.pitch_rad = state.trunk.pitch_rad;
         sample.contact = contacts;
         sample.activity = output.activity;
-        for (int leg = 0; leg < kNumLegs; ++leg) {
+        sample.abs_hip_torque_nm = PerLeg<double>(legs);
+        sample.abs_knee_torque_nm = PerLeg<double>(legs);
+        for (std::size_t leg = 0; leg < legs; ++leg) {
           sample.abs_hip_torque_nm[leg] = std::abs(state.legs[leg].hip_torque_nm);
           sample.abs_knee_torque_nm[leg] = std::abs(state.legs[leg].knee_torque_nm);
         }
@@ -206,7 +214,7 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
 
   result.sim_time_s = plant.state().time_s;
   if (tracking_samples > 0) result.hip_tracking_rms_rad = std::sqrt(tracking_sq_sum / tracking_samples);
-  const double expected_pitch_hz = params.frequency * pitch_harmonic(Gait::named(settings.controller.gait));
+  const double expected_pitch_hz = params.frequency * pitch_harmonic(controller.network().gait(), settings.controller.legs);
   result.breakdown = recorder.evaluate(params.frequency, expected_pitch_hz);
   result.energy = energy.evaluate(result.breakdown.distance_m, settings.cost.min_distance_m);
   // A fault or a divergence gets the fall cost as a placeholder: the optimizer never learns from it (its
@@ -248,7 +256,7 @@ RolloutSettings parse_rollout_settings(const YamlReader& r) {
     auto& cc = s.controller;
     cc.gait = c.get_string("gait", cc.gait);
     try {
-      (void)Gait::named(cc.gait);
+      (void)resolve_gait(cc);
     } catch (const InputError& e) {
       c.fail("gait", e.what());
     }
@@ -342,11 +350,11 @@ RolloutSettings parse_rollout_settings(const YamlReader& r) {
   return s;
 }
 
-TraceSink make_csv_trace(const std::string& path) {
+TraceSink make_csv_trace(const std::string& path, const std::vector<std::string>& leg_names) {
   auto out = std::make_shared<std::ofstream>(path);
   if (!*out) throw InputError(fmt::format("{}: cannot open trace file for writing", path));
   *out << "time_s,x_m,height_m,pitch_rad,vx_mps";
-  for (const auto& leg : kLegNames) {
+  for (const auto& leg : leg_names) {
     *out << fmt::format(
         ",{0}_phase,{0}_hip_target_rad,{0}_hip_rad,{0}_knee_target_rad,{0}_knee_rad,{0}_hip_torque_nm,"
         "{0}_knee_torque_nm,{0}_foot_force_n,{0}_contact,{0}_ltd,{0}_etd,{0}_eto,{0}_lto",
@@ -354,13 +362,13 @@ TraceSink make_csv_trace(const std::string& path) {
   }
   // The motors' output speeds (for their power, energy.hpp) after every leg's block, so older readers
   // that count columns still find theirs.
-  for (const auto& leg : kLegNames) *out << fmt::format(",{0}_hip_speed_rad_s,{0}_knee_motor_speed_rad_s", leg);
+  for (const auto& leg : leg_names) *out << fmt::format(",{0}_hip_speed_rad_s,{0}_knee_motor_speed_rad_s", leg);
   *out << '\n';
   return [out](const TraceSample& s) {
     const auto& st = *s.state;
     *out << fmt::format("{:.4f},{:.5f},{:.5f},{:.5f},{:.5f}", s.time_s, st.trunk.x_m, st.trunk.height_m,
                         st.trunk.pitch_rad, st.trunk.vx_mps);
-    for (int leg = 0; leg < kNumLegs; ++leg) {
+    for (std::size_t leg = 0; leg < st.legs.size(); ++leg) {
       const auto& cmd = s.output->commands[leg];
       const auto& ls = st.legs[leg];
       const auto& a = s.output->activity[leg];

@@ -119,6 +119,7 @@ TEST(EnergyClaim, KneeSteadyShareAndTheSentenceThatSaysWhatDominatesEqOne) {
   for (int i = 0; i < 3; ++i) {
     Trial t = gait(i, 3.0, 0.1, 0.3);
     t.summed_torque_nm = 4.0;
+    t.energy.knee = PerLeg<JointEnergy>(4);  // a quadruped's four knees
     for (auto& knee : t.energy.knee) knee.signed_mean_torque_nm = -0.25 * (i + 1);  // steady shares 0.25, 0.5, 0.75
     s.trials.push_back(t);
   }

@@ -14,6 +14,9 @@
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/yaml_reader.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::calibration {
 namespace {
@@ -66,7 +69,7 @@ TEST(MeasuredTrace, CsvHoldsWhatTheRolloutRecorded) {
   MeasuredTrace in_memory;
   {
     // The CSV sink closes its file when the last copy of it goes.
-    const TraceSink to_file = make_csv_trace(csv.string()), to_memory = record_trace(in_memory);
+    const TraceSink to_file = make_csv_trace(csv.string(), test::morti_legs().names), to_memory = record_trace(in_memory);
     sim::run_sim_rollout(job(model("morti"), 3, 1.5), [&](const TraceSample& s) {
       to_file(s);
       to_memory(s);

@@ -10,6 +10,9 @@
 #include "cpgmatch/calibration/measured_trace.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/yaml_reader.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::calibration {
 namespace {

@@ -5,6 +5,9 @@
 #include <cmath>
 
 #include "cpgmatch/dds/convert_trace.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::dds {
 namespace {
@@ -24,6 +27,7 @@ domain::RolloutTraceChunk chunk_of(std::size_t ticks) {
   c.parameters = to_map(CpgParameters{});
   for (std::size_t i = 0; i < ticks; ++i) {
     domain::MeasuredTick t;
+    t.legs = PerLeg<domain::MeasuredLeg>(4);
     t.time_s = (256 + i) / 500.0;
     t.pitch_rad = std::sin(0.3 * i);
     t.vx_mps = 1.0 / (i + 3.0);

@@ -14,6 +14,9 @@
 
 #include <openssl/evp.h>
 #include <openssl/x509.h>
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::dds {
 namespace {
@@ -196,6 +199,7 @@ TEST(Convert, EveryDomainValueSurvivesTheWire) {
   r.summary.energy.electrical_cost_of_transport = 4.5;
   r.summary.energy.signed_torque_per_speed = 11.0;
   r.summary.energy.positive_work_j_per_m = 28.0;
+  r.summary.energy.hip = r.summary.energy.knee = PerLeg<JointEnergy>(test::kNumLegs);
   for (int leg = 0; leg < kNumLegs; ++leg) {
     r.summary.energy.hip[leg] = {1.0 + leg, 2.0 + leg, 3.0 + leg, -0.1 * leg};
     r.summary.energy.knee[leg] = {5.0 + leg, 6.0 + leg, 7.0 + leg, -0.5 - leg};

@@ -6,6 +6,9 @@
 
 #include "cpgmatch/sim/ode_plant.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::sim {
 namespace {
@@ -18,7 +21,7 @@ struct KneeDrive {
 // through the knee springs loads the knee motors while they run at their fastest.
 std::vector<KneeDrive> knee_drives_while_lifting(const MortiModel& model) {
   OdePlant plant(model, TerrainSpec{}, 1);
-  PerLeg<JointCommand> stand{};
+  PerLeg<JointCommand> stand(test::kNumLegs);
   for (auto& c : stand) c.hip_angle_rad = -0.1;  // toes under the hips
   plant.command(stand);
   const double dt = plant.time_step_s();

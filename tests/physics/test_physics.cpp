@@ -8,6 +8,9 @@
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/sim/ode_plant.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::sim {
 namespace {
@@ -91,9 +94,9 @@ TEST(Physics, FeetSettleWithoutBouncing) {
   // after the impact, 2026-12-02). Those are the controller's, and J_contact counts them.
   SimRolloutJob job = job_with("matched-trot.yaml", "flat", 10.0, 5.0);
   job.settings.controller.feedback.early_touchdown = false;
-  PerLeg<bool> was{};
-  PerLeg<double> lifted_at{};
-  PerLeg<int> touchdowns{}, bounces{};
+  PerLeg<bool> was(test::kNumLegs);
+  PerLeg<double> lifted_at(test::kNumLegs);
+  PerLeg<int> touchdowns(test::kNumLegs, 0), bounces(test::kNumLegs, 0);
   bool first = true;
   run_sim_rollout(job, [&](const TraceSample& s) {
     if (s.time_s < 10.0) return;
@@ -118,7 +121,7 @@ TEST(Physics, FeetSettleWithoutBouncing) {
 // Largest excursion of the front-left hip during `passive_s` with every hip motor passive, from standing.
 double passive_hip_excursion(const MortiModel& model, double passive_s) {
   OdePlant plant(model, TerrainSpec::parse("flat"), 0);
-  PerLeg<JointCommand> cmd{};
+  PerLeg<JointCommand> cmd(test::kNumLegs);
   cmd[kFrontLeft].hip_angle_rad = 0.3;  // stand with the FL leg 0.3 rad forward: its hip is loaded off-centre
   plant.command(cmd);
   plant.advance(0.5);
@@ -185,7 +188,7 @@ TEST(Physics, APassiveHipResistsLikeABackdrivenGearedMotor) {
 // Flexion (relative to standing) the FL knee settles at when commanded to `command_rad` for 1 s.
 double knee_flexion_after(const MortiModel& model, double command_rad) {
   OdePlant plant(model, TerrainSpec::parse("flat"), 0);
-  PerLeg<JointCommand> cmd{};
+  PerLeg<JointCommand> cmd(test::kNumLegs);
   plant.command(cmd);
   plant.advance(0.3);
   cmd[kFrontLeft].knee_flexion_rad = command_rad;
@@ -328,7 +331,7 @@ TEST(Physics, AReflexWithheldWhileTheOtherLegOfTheGirdleIsUpKeepsTheGirdleCarrie
     // The gate is exercised: early touchdowns begin while the girdle's other leg is off the ground (these are
     // the withheld ones; they are still measured as early-touchdown activity).
     int withheld_onsets = 0;
-    PerLeg<bool> was_active{};
+    PerLeg<bool> was_active(test::kNumLegs);
     const RolloutResult shipped = run_sim_rollout(job, [&](const TraceSample& s) {
       for (int leg = 0; leg < kNumLegs; ++leg) {
         const bool active = s.output->activity[leg].early_touchdown;

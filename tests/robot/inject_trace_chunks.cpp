@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
   good.parameters = cpgmatch::to_map(cpgmatch::CpgParameters{});
   for (int i = 0; i < 4; ++i) {
     domain::MeasuredTick t;
+    t.legs = cpgmatch::PerLeg<cpgmatch::domain::MeasuredLeg>(4);
     t.time_s = i / 500.0;
     good.ticks.push_back(t);
   }

@@ -15,6 +15,9 @@
 #include "cpgmatch/robot/robot_device.hpp"
 #include "cpgmatch/robot/sensor_protocol.hpp"
 #include "cpgmatch/rollout.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::robot {
 namespace {
@@ -53,6 +56,7 @@ class ScriptedRobot {
       std::unique_lock<std::mutex> lock(mutex_);
       const auto got = device_.receive(200us);
       PlantState s;
+      s.legs = PerLeg<LegState>(4);
       s.trunk.height_m = 0.25;
       s.trunk.x_m = 0.01;
       for (int leg = 0; leg < kNumLegs; ++leg) {
@@ -105,7 +109,7 @@ RobotConfig tolerant_morti() {
 const CanPlantOptions kNoStallWatch{0.2, false};
 
 PerLeg<JointCommand> pose(double hip, double knee) {
-  PerLeg<JointCommand> c{};
+  PerLeg<JointCommand> c(test::kNumLegs);
   for (auto& leg : c) {
     leg.hip_angle_rad = hip;
     leg.knee_flexion_rad = knee;

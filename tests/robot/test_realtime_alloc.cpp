@@ -88,6 +88,7 @@ class AnsweringRobot {
     while (!stop_) {
       const RobotDevice::Received got = device_.receive(std::chrono::microseconds(200));
       PlantState s;
+      s.legs = PerLeg<LegState>(4);
       s.trunk.height_m = 0.28;
       for (auto& leg : s.legs) leg.foot_normal_force_n = 10.0;
       device_.update(s, 0.0);

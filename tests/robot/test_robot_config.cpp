@@ -8,6 +8,9 @@
 
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/robot/robot_config.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::robot {
 namespace {

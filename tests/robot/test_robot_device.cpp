@@ -9,6 +9,9 @@
 #include "cpgmatch/robot/mit_protocol.hpp"
 #include "cpgmatch/robot/robot_device.hpp"
 #include "cpgmatch/robot/sensor_protocol.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::robot {
 namespace {
@@ -32,6 +35,7 @@ struct Rig {
 
 PlantState standing(double force) {
   PlantState s;
+  s.legs = PerLeg<LegState>(4);
   s.trunk = {0.5, 0.27, 0.02, 0.3};
   for (int leg = 0; leg < kNumLegs; ++leg) {
     s.legs[leg].hip_angle_rad = 0.1 * (leg + 1);

@@ -17,6 +17,9 @@
 #include "cpgmatch/study/study_store.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 #include "trace_intake.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch {
 namespace {
@@ -36,6 +39,7 @@ RolloutTrace make_trace(std::size_t ticks, std::uint64_t store = 7, int study = 
   t.parameters = to_map(CpgParameters{});
   for (std::size_t i = 0; i < ticks; ++i) {
     domain::MeasuredTick k;
+    k.legs = PerLeg<domain::MeasuredLeg>(4);
     k.time_s = static_cast<double>(i) / 500.0;
     k.pitch_rad = 0.001 * std::sin(0.1 * i);
     k.vx_mps = 0.3 + 1e-5 * i;

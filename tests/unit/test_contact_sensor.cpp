@@ -3,6 +3,9 @@
 
 #include "cpgmatch/contact_sensor.hpp"
 #include "cpgmatch/errors.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch {
 namespace {
@@ -30,14 +33,14 @@ TEST(ContactSensor, AForceHoveringAroundTheThresholdDoesNotFlicker) {
   for (int i = 0; i < 20; ++i) f.push_back(i % 2 ? 2.5 : 1.5);
   for (int i = 0; i < 10; ++i) f.push_back(10.0);
   ContactSensorConfig cfg;
-  ContactSensor sensor(cfg, 1);
+  ContactSensor sensor(cfg, 1, test::kNumLegs);
   const auto seen = poll_all(sensor, f);
   EXPECT_EQ(changes(seen), 2);  // one lift-off, one touchdown (made at the first 2.5 N that holds)
 
   ContactSensorConfig plain = cfg;
   plain.release_threshold_n = plain.threshold_n;
   plain.min_stable_s = 0.0;
-  ContactSensor naive(plain, 1);
+  ContactSensor naive(plain, 1, test::kNumLegs);
   EXPECT_GT(changes(poll_all(naive, f)), 15);
 }
 
@@ -46,7 +49,7 @@ TEST(ContactSensor, AOnePollGlitchIsIgnoredAndARealChangeIsReportedAfterTheMinim
   f.push_back(0.0);  // one-poll dropout (4 ms < 8 ms)
   for (int i = 0; i < 10; ++i) f.push_back(10.0);
   for (int i = 0; i < 10; ++i) f.push_back(0.0);  // real lift-off at poll 21
-  ContactSensor sensor({}, 1);
+  ContactSensor sensor({}, 1, test::kNumLegs);
   const auto seen = poll_all(sensor, f);
   for (int i = 0; i < 21; ++i) EXPECT_TRUE(seen[i]) << "poll " << i;
   EXPECT_TRUE(seen[22]);   // 4 ms after the change: not yet
@@ -59,7 +62,7 @@ TEST(ContactSensor, LatencyDelaysTheReportedContact) {
   cfg.latency_s = 0.012;  // three polls
   std::vector<double> f(5, 10.0);
   for (int i = 0; i < 10; ++i) f.push_back(0.0);
-  ContactSensor sensor(cfg, 1);
+  ContactSensor sensor(cfg, 1, test::kNumLegs);
   const auto seen = poll_all(sensor, f);
   EXPECT_TRUE(seen[7]);
   EXPECT_FALSE(seen[8]);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "cpgmatch/cost.hpp"
+#include "../support/morti_legs.hpp"
 
 namespace cpgmatch {
 namespace {
@@ -49,6 +50,8 @@ TEST(Cost, RecorderCombinesTermsWithWeightsAndNormalisesTorqueBySpeed) {
   CostRecorder rec(cfg);
   for (int i = 0; i <= 5000; ++i) {
     CostSample s;
+    s.activity = PerLeg<FeedbackActivity>(test::kNumLegs);
+    s.abs_hip_torque_nm = s.abs_knee_torque_nm = PerLeg<double>(test::kNumLegs, 0.0);
     s.time_s = i / 500.0;
     s.x_m = 0.3 * s.time_s;  // 0.3 m/s
     s.pitch_rad = 0.05 * std::sin(2 * M_PI * s.time_s);
@@ -90,6 +93,8 @@ TEST(Cost, AFallAlwaysCostsMoreThanTheWorstRolloutThatDidNotFall) {
   CostRecorder rec(cfg);
   for (int i = 0; i <= 5000; ++i) {
     CostSample s;
+    s.activity = PerLeg<FeedbackActivity>(test::kNumLegs);
+    s.abs_hip_torque_nm = s.abs_knee_torque_nm = PerLeg<double>(test::kNumLegs, 0.0);
     s.time_s = i / 500.0;
     s.x_m = 0.0;
     s.pitch_rad = 0.79 * std::sin(2 * M_PI * 37.0 * s.time_s);  // near the fall limit, at 37 Hz

@@ -12,6 +12,9 @@
 #include "cpgmatch/controller.hpp"
 #include "cpgmatch/cpg.hpp"
 #include "cpgmatch/errors.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch {
 namespace {
@@ -103,12 +106,12 @@ TEST(Trajectory, StanceFractionEqualsTheDutyFactor) {
   cfg.startup_ramp_s = 0.0;
   cfg.feedback = FeedbackConfig::none();
   CpgController ctrl(p, cfg);
-  PerLeg<int> stance{}, total{};
-  PerLeg<double> last{};
+  PerLeg<int> stance(test::kNumLegs, 0), total(test::kNumLegs, 0);
+  PerLeg<double> last(test::kNumLegs);
   bool first = true;
   for (int i = 0; i < 5000; ++i) {
-    PerLeg<bool> scheduled{};
-    for (int leg = 0; leg < kNumLegs; ++leg) scheduled[leg] = ctrl.network().phases()[leg] < step_timing(p, leg).duty_factor;
+    PerLeg<bool> scheduled(test::kNumLegs);
+    for (int leg = 0; leg < kNumLegs; ++leg) scheduled[leg] = ctrl.network().phases()[leg] < step_timing(p, test::morti_legs(), leg).duty_factor;
     const auto out = ctrl.update(scheduled);
     for (int leg = 0; leg < kNumLegs; ++leg) {
       if (!first) {
@@ -140,9 +143,9 @@ double front_left_reflex_flexion(const std::string& gait, bool partner_down_whil
   CpgController with_reflex(p, cfg), without(p, open_loop);
   double largest = 0.0;
   for (int i = 0; i < 2000; ++i) {
-    PerLeg<bool> contacts{};
+    PerLeg<bool> contacts(test::kNumLegs);
     for (int leg = 0; leg < kNumLegs; ++leg) {
-      contacts[leg] = with_reflex.network().phases()[leg] < step_timing(p, leg).duty_factor;
+      contacts[leg] = with_reflex.network().phases()[leg] < step_timing(p, test::morti_legs(), leg).duty_factor;
     }
     const double fl = with_reflex.network().phases()[kFrontLeft];
     const bool stumbling = fl >= 0.7 && fl < 0.75;
@@ -168,7 +171,7 @@ TEST(Controller, TheReflexWaitsForTheGirdlesOtherLegWhereTheGaitAlternatesItsLeg
 
 TEST(Trajectory, KneeFlexesOnlyInItsWindow) {
   CpgParameters p;
-  const StepTiming t = step_timing(p, kFrontLeft);
+  const StepTiming t = step_timing(p, test::morti_legs(), kFrontLeft);
   EXPECT_EQ(knee_profile(t.knee_flex_start - 0.01, t.knee_flex_start, t.retraction_start), 0.0);
   EXPECT_EQ(knee_profile(t.retraction_start + 0.01, t.knee_flex_start, t.retraction_start), 0.0);
   EXPECT_NEAR(knee_profile(0.5 * (t.knee_flex_start + t.retraction_start), t.knee_flex_start, t.retraction_start), 1.0, 1e-12);
@@ -191,11 +194,11 @@ TEST(Parameters, BadValuesAreRejectedByName) {
 }
 
 TEST(Cpg, BodyPitchRepeatsTwicePerCycleInGaitsWhoseGirdlesAlternateLeftRight) {
-  EXPECT_EQ(pitch_harmonic(Gait::named("trot")), 2);
-  EXPECT_EQ(pitch_harmonic(Gait::named("pace")), 2);
-  EXPECT_EQ(pitch_harmonic(Gait::named("walk")), 2);
-  EXPECT_EQ(pitch_harmonic(Gait::named("bound")), 1);
-  EXPECT_EQ(pitch_harmonic(Gait::named("pronk")), 1);
+  EXPECT_EQ(pitch_harmonic(Gait::named("trot"), test::morti_legs()), 2);
+  EXPECT_EQ(pitch_harmonic(Gait::named("pace"), test::morti_legs()), 2);
+  EXPECT_EQ(pitch_harmonic(Gait::named("walk"), test::morti_legs()), 2);
+  EXPECT_EQ(pitch_harmonic(Gait::named("bound"), test::morti_legs()), 1);
+  EXPECT_EQ(pitch_harmonic(Gait::named("pronk"), test::morti_legs()), 1);
 }
 
 TEST(Seeds, EveryTrialGetsItsOwnRolloutSeedAndTheSameOneOnEveryRun) {

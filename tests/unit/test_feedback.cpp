@@ -9,6 +9,9 @@
 #include <gtest/gtest.h>
 
 #include "cpgmatch/feedback.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch {
 namespace {
@@ -27,7 +30,7 @@ StepTiming test_timing() {
   p.duty_factor_front = 0.5;
   p.knee_phase_shift = 0.2;
   p.overswing = 0.2;
-  return step_timing(p, kFrontLeft);
+  return step_timing(p, test::morti_legs(), kFrontLeft);
 }
 
 Counts run(const std::function<bool(double)>& contact_at, FeedbackConfig cfg = {}) {
@@ -69,7 +72,7 @@ TEST(Feedback, LateTouchdownHoldsThePhaseOnlyForTheMaxWaitButKeepsMeasuring) {
   // The ground never comes in stance 0..0.3 (a foot hanging while the other legs carry the body).
   CpgParameters p;
   p.duty_factor_front = 0.5;
-  const StepTiming t = step_timing(p, kFrontLeft);
+  const StepTiming t = step_timing(p, test::morti_legs(), kFrontLeft);
   FeedbackConfig cfg;
   cfg.late_touchdown_phase_rate = 0.1;
   cfg.late_touchdown_max_wait_s = 0.1;

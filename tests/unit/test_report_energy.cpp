@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include "cpgmatch/domain/report_json.hpp"
+#include "../support/morti_legs.hpp"
+
+using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 
 namespace cpgmatch::domain {
 namespace {
@@ -17,6 +20,7 @@ RolloutReport measured_report() {
   r.summary.distance_m = 3.0;
   r.summary.mean_speed_mps = 0.3;
   EnergyMeasures& e = r.summary.energy;
+  e.hip = e.knee = PerLeg<JointEnergy>(test::kNumLegs);
   e.positive_work_j = 90.0;
   e.joule_loss_j = 500.0;
   e.electrical_j = 580.0;
@@ -49,7 +53,7 @@ TEST(ReportEnergy, AReportFromBeforeEnergyReadsNaN) {
   const EnergyMeasures e = report_from_json(old).summary.energy;
   EXPECT_TRUE(std::isnan(e.electrical_cost_of_transport));
   EXPECT_TRUE(std::isnan(e.positive_work_j_per_m));
-  EXPECT_TRUE(std::isnan(e.knee[0].signed_mean_torque_nm));
+  EXPECT_TRUE(e.knee.empty());  // no per-leg values: a report from before says nothing of its legs
   // Unmeasured fields are null in JSON and NaN again when read.
   nlohmann::json partial = to_json(measured_report());
   partial["energy"]["joints"]["hip"][1].erase("electrical_j");

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "cpgmatch/rollout.hpp"
+#include "../support/morti_legs.hpp"
 
 namespace cpgmatch {
 namespace {
@@ -19,6 +20,7 @@ class ScriptedPlant final : public Plant {
   void advance(double dt_s) override { t_ += dt_s; }
   PlantState state() const override {
     PlantState s;
+    s.legs = PerLeg<LegState>(test::kNumLegs);
     s.time_s = t_;
     s.trunk.height_m = 0.28;
     s.trunk.x_m = 0.01 * t_;

@@ -7,6 +7,8 @@
 
 #include "flag_checks.hpp"
 #include "commands.hpp"
+#include "cpgmatch/robot_description_loader.hpp"
+#include "cpgmatch/sim/planar_leg_model.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "rollout_json.hpp"
 
@@ -18,6 +20,7 @@ struct RolloutOptions {
   std::vector<std::string> assignments;
   std::string settings_file;
   std::string model_file;
+  std::string robot;
   std::string terrain = "flat";
   std::uint64_t seed = 0;
   bool no_feedback = false;
@@ -70,7 +73,9 @@ void add_rollout_command(CLI::App& app) {
   cmd->add_option("--params", opts->params_file, "parameter YAML (default: configs/params/default.yaml)");
   cmd->add_option("--set", opts->assignments, "override one parameter, name=value (repeatable)");
   cmd->add_option("--settings", opts->settings_file, "rollout settings YAML (default: configs/rollout.yaml)");
-  cmd->add_option("--model", opts->model_file, "robot model YAML (default: configs/model/morti.yaml)");
+  CLI::Option* model = cmd->add_option("--model", opts->model_file, "robot model YAML (default: configs/model/morti.yaml)");
+  cmd->add_option("--robot", opts->robot, "a robot description: a shipped robot's name (cpgmatch robot list) or a folder with robot.yaml")
+      ->excludes(model);
   cmd->add_option("--terrain", opts->terrain, sim::TerrainSpec::syntax());
   cmd->add_option("--seed", opts->seed, "seed for terrain roughness and sensor noise")->check(whole_non_negative());
   cmd->add_flag("--no-feedback", opts->no_feedback, "switch off all feedback mechanisms (ablation)");
@@ -86,6 +91,11 @@ void add_rollout_command(CLI::App& app) {
   cmd->callback([opts] {
     sim::SimRolloutJob job = make_sim_job(opts->params_file, opts->assignments, opts->settings_file,
                                           opts->model_file, opts->terrain, opts->seed);
+    if (!opts->robot.empty()) {
+      const RobotDescription robot = load_robot(opts->robot);
+      job.model = sim::planar_leg_model(robot);
+      apply_robot_legs(job.settings.controller, robot);
+    }
     if (opts->entrain_s >= 0.0) job.settings.entrain_s = opts->entrain_s;
     if (opts->eval_s > 0.0) job.settings.eval_s = opts->eval_s;
     job.terrain.treadmill_speed_mps = opts->treadmill_mps;
@@ -98,7 +108,7 @@ void add_rollout_command(CLI::App& app) {
       else throw InputError(fmt::format("--disable '{}': expected ltd, etd or eto", m));
     }
     TraceSink trace;
-    if (!opts->trace_file.empty()) trace = make_csv_trace(opts->trace_file);
+    if (!opts->trace_file.empty()) trace = make_csv_trace(opts->trace_file, job.settings.controller.legs.names);
     const RolloutResult r = sim::run_sim_rollout(job, trace);
     if (opts->json) {
       std::cout << to_json(r).dump() << std::endl;

@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   cpgmatch::cli::add_sim2real_command(app);
   cpgmatch::cli::add_estop_command(app);
   cpgmatch::cli::add_calibrate_command(app);
+  cpgmatch::cli::add_robot_command(app);
   try {
     cpgmatch::runtime::export_config_dir();  // before parsing: subcommands run inside parse()
     app.parse(argc, argv);

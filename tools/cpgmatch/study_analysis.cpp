@@ -114,7 +114,8 @@ analysis::FigureReport write_study_figures(const fs::path& dir, const StudyAnaly
   if (!trace_best || a.report.best_rollout <= 0) return all;
   try {
     const fs::path trace = fs::absolute(dir) / "best_trace.csv";
-    sim::run_sim_rollout(study_job(*a.spec, analysis::answer_params(a.report), a.trials.seed), make_csv_trace(trace.string()));
+    const sim::SimRolloutJob job = study_job(*a.spec, analysis::answer_params(a.report), a.trials.seed);
+    sim::run_sim_rollout(job, make_csv_trace(trace.string(), job.settings.controller.legs.names));
     for (auto& f : analysis::plot_trace(trace, dir)) all.files.push_back(std::move(f));
   } catch (const std::exception& e) {
     failed("fig4", e);

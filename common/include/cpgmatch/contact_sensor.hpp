@@ -41,7 +41,8 @@ void validate(const ContactSensorConfig& config);
 
 class ContactSensor {
  public:
-  ContactSensor(ContactSensorConfig config, std::uint64_t seed);
+  // One sensor per leg; the feet start in contact.
+  ContactSensor(ContactSensorConfig config, std::uint64_t seed, std::size_t leg_count);
 
   // Samples the forces at time t (call at poll_rate_hz); returns the contacts as seen after the latency.
   // The feet start in contact (a rollout starts standing).
@@ -64,10 +65,10 @@ class ContactSensor {
   std::vector<Sample> pending_;
   std::size_t head_ = 0;
   std::size_t count_ = 0;
-  PerLeg<bool> latest_{};
-  PerLeg<bool> raw_{};                // the hysteresis output, before the minimum duration
-  PerLeg<bool> debounced_{};
-  PerLeg<double> raw_since_s_{};      // when raw_ last changed
+  PerLeg<bool> latest_;
+  PerLeg<bool> raw_;                  // the hysteresis output, before the minimum duration
+  PerLeg<bool> debounced_;
+  PerLeg<double> raw_since_s_;        // when raw_ last changed
 };
 
 }  // namespace cpgmatch

@@ -11,7 +11,11 @@
 namespace cpgmatch {
 
 struct ControllerConfig {
-  std::string gait = "trot";
+  std::string gait = "trot";  // a name of `gaits` (or, with none given, of Gait::named's quadruped gaits)
+  // The robot's legs and its gaits (one phase offset per leg), from its description. The defaults are
+  // Morti's four legs and the quadruped gaits of Gait::named.
+  LegLayout legs = LegLayout::quadruped();
+  std::vector<Gait> gaits;
   double coupling_gain_per_s = 0.5;  // K in the oscillator equation
   double control_rate_hz = 500.0;
   // The CPG amplitudes ramp from 0 to their full value over this time, so a rollout starts from
@@ -20,18 +24,23 @@ struct ControllerConfig {
   FeedbackConfig feedback;
 };
 
+// The gait `config.gait` names among `config.gaits` (Gait::named's when that is empty), checked to have one
+// offset per leg of `config.legs`; InputError naming the gaits there are otherwise.
+Gait resolve_gait(const ControllerConfig& config);
+
 struct ControllerOutput {
   PerLeg<JointCommand> commands;
   PerLeg<FeedbackActivity> activity;
-  PerLeg<double> phases{};
+  PerLeg<double> phases;
 };
 
 class CpgController {
  public:
   CpgController(const CpgParameters& params, const ControllerConfig& config);
 
-  // Advances the controller by one control period using the contacts polled most recently.
+  // Advances the controller by one control period using the contacts polled most recently (one per leg).
   ControllerOutput update(const PerLeg<bool>& contacts);
+  std::size_t leg_count() const { return config_.legs.size(); }
 
   double time_s() const { return time_s_; }
   const PhaseOscillatorNetwork& network() const { return network_; }
@@ -46,7 +55,8 @@ class CpgController {
   PerLeg<StepTiming> timing_;
   // The gait moves this leg and its girdle partner half a cycle apart (trot, pace, walk), so one of them is
   // meant to carry the girdle while the other swings; not in a bound or a pronk (the reflex's girdle gate).
-  PerLeg<bool> girdle_alternates_{};
+  PerLeg<bool> girdle_alternates_;
+  PerLeg<int> girdle_partner_;  // -1: the leg's group is not a pair
   double time_s_ = 0.0;
 };
 

@@ -96,10 +96,10 @@ struct CostSample {
   double time_s = 0.0;
   double x_m = 0.0;
   double pitch_rad = 0.0;
-  PerLeg<bool> contact{};
-  PerLeg<FeedbackActivity> activity{};
-  PerLeg<double> abs_hip_torque_nm{};
-  PerLeg<double> abs_knee_torque_nm{};
+  PerLeg<bool> contact;  // one per leg, every sample of a recorder with the same number
+  PerLeg<FeedbackActivity> activity;
+  PerLeg<double> abs_hip_torque_nm;
+  PerLeg<double> abs_knee_torque_nm;
 };
 
 class CostRecorder {

@@ -1,4 +1,4 @@
-// The central pattern generator: four coupled phase oscillators and the joint trajectories they drive.
+// The central pattern generator: one phase oscillator per leg, coupled, and the joint trajectories they drive.
 //
 // This is the phase-space form of the modified Hopf oscillator used by Ruppert & Badri-Sproewitz (2022):
 // one phase per leg, phi_i in [0, 1) cycles, integrated as
@@ -8,7 +8,7 @@
 // where f is the step frequency (Hz), K the coupling gain (1/s), d_ij = offset_j - offset_i the desired
 // phase difference from the gait's phase-offset vector, and rate_i in [0, 1] the feedback's deceleration
 // of the node's own frequency (1 = free running; the coupling is not scaled, see step()). A phase never
-// runs backwards. A gait is therefore data: a vector of four phase offsets.
+// runs backwards. A gait is therefore data: a vector of phase offsets, one per leg (2, 4, 6, ... legs).
 //
 // Convention inside one leg's cycle: phi = 0 is the nominal touchdown, [0, D) is stance, [D, 1) swing,
 // with D the duty factor of that leg. The oscillator runs uniformly; the duty factor only shapes the
@@ -26,11 +26,13 @@ namespace cpgmatch {
 
 struct Gait {
   std::string name;
-  PerLeg<double> phase_offsets{};  // cycles, FL FR HL HR
+  PerLeg<double> phase_offsets;  // cycles, one per leg in the robot's leg order
 
-  // trot, walk, pace, bound, pronk. Throws InputError for an unknown name.
+  // The quadruped gaits for LegLayout::quadruped()'s FL FR HL HR: trot, walk, pace, bound, pronk. Throws
+  // InputError for an unknown name. A robot description brings its own gaits (RobotDescription::gaits).
   static Gait named(std::string_view name);
   static std::vector<std::string> names();
+  std::size_t leg_count() const { return phase_offsets.size(); }
 };
 
 class PhaseOscillatorNetwork {
@@ -39,7 +41,7 @@ class PhaseOscillatorNetwork {
 
   // Starts every oscillator at its gait offset (already phase locked).
   void reset();
-  // Starts from arbitrary phases (used by tests of the locking dynamics).
+  // Starts from arbitrary phases, one per leg (used by tests of the locking dynamics).
   void reset(const PerLeg<double>& phases);
 
   // Explicit Euler step of dt seconds; rates are the per-leg phase-deceleration factors in [0, 1].
@@ -69,10 +71,10 @@ class PhaseOscillatorNetwork {
 };
 
 // How many times per CPG cycle body pitch repeats in a clean gait of this pattern: 2 when shifting the
-// pattern by half a cycle maps every front leg onto a front leg and every hind leg onto a hind leg (trot,
-// pace, walk: each pair steps twice per cycle, so front-hind loading and hence pitch repeat twice),
-// otherwise 1 (bound, pronk). Body pitch is set by front versus hind loading, not by left versus right.
-int pitch_harmonic(const Gait& gait);
+// pattern by half a cycle maps every leg onto a leg of its own group (trot, pace, walk: each front and each
+// hind pair steps twice per cycle, so front-hind loading and hence pitch repeat twice; a hexapod's tripod),
+// otherwise 1 (bound, pronk). Body pitch is set by fore-aft loading, not by left versus right.
+int pitch_harmonic(const Gait& gait, const LegLayout& legs);
 
 // Key phases (cycles) of one leg's step, derived from the parameters.
 struct StepTiming {
@@ -81,7 +83,8 @@ struct StepTiming {
   double retraction_start; // swing-leg retraction begins; knee is extended again here
 };
 
-StepTiming step_timing(const CpgParameters& params, int leg);
+// The leg's group decides its duty factor (LegLayout::uses_hind_duty_factor).
+StepTiming step_timing(const CpgParameters& params, const LegLayout& legs, int leg);
 
 // Hip shape in units of the hip amplitude as a function of phase: +1 at touchdown, -1 at toe-off,
 // 1 + overswing at the start of retraction. Continuous in phi.

@@ -64,14 +64,14 @@ struct JointEnergy {
 };
 
 struct EnergyMeasures {
-  PerLeg<JointEnergy> hip{};
-  PerLeg<JointEnergy> knee{};
-  double positive_work_j = std::nan("");  // sums over the eight joints
+  PerLeg<JointEnergy> hip;   // one per leg
+  PerLeg<JointEnergy> knee;
+  double positive_work_j = std::nan("");  // sums over every hip and knee
   double joule_loss_j = std::nan("");
   double electrical_j = std::nan("");
-  double hip_positive_work_j_per_m = std::nan("");   // the four hips' positive work per metre walked
+  double hip_positive_work_j_per_m = std::nan("");   // every hip's positive work per metre walked
   double knee_positive_work_j_per_m = std::nan("");
-  double positive_work_j_per_m = std::nan("");       // all eight
+  double positive_work_j_per_m = std::nan("");       // every hip and knee
   double mechanical_cost_of_transport = std::nan("");  // positive work / (m g d), dimensionless
   double electrical_cost_of_transport = std::nan("");  // electrical energy / (m g d)
   // Σ over joints of |signed mean τ| / mean speed, N m per (m/s): eq. 1 with the signed mean, which keeps
@@ -87,8 +87,8 @@ struct JointDrive {
 
 struct EnergySample {
   double time_s = 0.0;
-  PerLeg<JointDrive> hip{};
-  PerLeg<JointDrive> knee{};
+  PerLeg<JointDrive> hip;   // one per leg
+  PerLeg<JointDrive> knee;
 };
 
 // Collects the evaluation window's drive samples and integrates them. Sample i's power is held until

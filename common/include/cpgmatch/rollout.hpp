@@ -96,6 +96,7 @@ CpgParameters load_parameters(const std::string& path, CpgParameters base = {});
 CpgParameters parse_parameters(const YamlReader& reader, CpgParameters base = {});
 
 // Writes the trace as CSV; opens the file and returns a sink that appends one row per sample.
-TraceSink make_csv_trace(const std::string& path);
+// Columns per leg are named by the robot's legs (`leg_names`, in leg order).
+TraceSink make_csv_trace(const std::string& path, const std::vector<std::string>& leg_names);
 
 }  // namespace cpgmatch

@@ -180,7 +180,17 @@ msg::RolloutReport to_wire(const domain::RolloutReport& r) {
   w.mechanical_cost_of_transport(e.mechanical_cost_of_transport);
   w.electrical_cost_of_transport(e.electrical_cost_of_transport);
   w.signed_torque_per_speed(e.signed_torque_per_speed);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  // This wire version carries per-leg energy for four legs (idl/cpgmatch_msgs.idl); a robot with another
+  // count sends its totals and no per-leg values (NaN), which every reader shows as "not measured".
+  for (std::size_t leg = 0; leg < w.hip_positive_work_j().size(); ++leg) {
+    if (leg >= e.hip.size() || e.hip.size() != w.hip_positive_work_j().size()) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      for (auto* a : {&w.hip_positive_work_j(), &w.hip_joule_loss_j(), &w.hip_electrical_j(), &w.hip_signed_mean_torque_nm(),
+                      &w.knee_positive_work_j(), &w.knee_joule_loss_j(), &w.knee_electrical_j(), &w.knee_signed_mean_torque_nm()}) {
+        (*a)[leg] = nan;
+      }
+      continue;
+    }
     w.hip_positive_work_j()[leg] = e.hip[leg].positive_work_j;
     w.hip_joule_loss_j()[leg] = e.hip[leg].joule_loss_j;
     w.hip_electrical_j()[leg] = e.hip[leg].electrical_j;
@@ -236,7 +246,9 @@ domain::RolloutReport from_wire(const msg::RolloutReport& w) {
   e.mechanical_cost_of_transport = w.mechanical_cost_of_transport();
   e.electrical_cost_of_transport = w.electrical_cost_of_transport();
   e.signed_torque_per_speed = w.signed_torque_per_speed();
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  e.hip = PerLeg<JointEnergy>(w.hip_positive_work_j().size());
+  e.knee = PerLeg<JointEnergy>(w.knee_positive_work_j().size());
+  for (std::size_t leg = 0; leg < e.hip.size(); ++leg) {
     e.hip[leg] = {w.hip_positive_work_j()[leg], w.hip_joule_loss_j()[leg], w.hip_electrical_j()[leg],
                   w.hip_signed_mean_torque_nm()[leg]};
     e.knee[leg] = {w.knee_positive_work_j()[leg], w.knee_joule_loss_j()[leg], w.knee_electrical_j()[leg],

@@ -14,7 +14,11 @@ msg::TraceTick tick_to_wire(const domain::MeasuredTick& t) {
   w.time_s(t.time_s);
   w.pitch_rad(t.pitch_rad);
   w.vx_mps(t.vx_mps);
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  // This wire version carries four legs per tick (idl/cpgmatch_msgs.idl).
+  if (t.legs.size() != w.hip_rad().size()) {
+    throw WireError(fmt::format("a trace tick of {} legs: this wire version carries {}", t.legs.size(), w.hip_rad().size()));
+  }
+  for (std::size_t leg = 0; leg < t.legs.size(); ++leg) {
     const domain::MeasuredLeg& l = t.legs[leg];
     w.hip_target_rad()[leg] = l.hip_target_rad;
     w.hip_rad()[leg] = l.hip_rad;
@@ -31,7 +35,8 @@ domain::MeasuredTick tick_from_wire(const msg::TraceTick& w) {
   t.time_s = w.time_s();
   t.pitch_rad = w.pitch_rad();
   t.vx_mps = w.vx_mps();
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  t.legs = PerLeg<domain::MeasuredLeg>(w.hip_rad().size());
+  for (std::size_t leg = 0; leg < t.legs.size(); ++leg) {
     t.legs[leg] = {w.hip_target_rad()[leg], w.hip_rad()[leg], w.knee_target_rad()[leg],
                    w.knee_rad()[leg],       w.contact()[leg], w.foot_force_n()[leg]};
   }

@@ -28,7 +28,7 @@ CanPlant::CanPlant(const RobotConfig& config, can::CanBus& bus, CanPlantOptions 
       period_ns_(std::llround(1e9 / config.control_rate_hz)),
       timeout_ns_(std::llround(config.safety.feedback_timeout_s * 1e9)),
       timer_(period_ns_) {
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     joints_[joint_index(leg, true)] = &config_.hips[leg];
     joints_[joint_index(leg, false)] = &config_.knees[leg];
   }
@@ -37,7 +37,7 @@ CanPlant::CanPlant(const RobotConfig& config, can::CanBus& bus, CanPlantOptions 
     motors_[j] = std::make_unique<MitMotor>(joints_[j]->node_id, config_.host_id, config_.ranges);
   }
   filters.push_back(motors_[0]->feedback_filter());  // every MIT reply arrives on the host id
-  for (int leg = 0; leg < kNumLegs; ++leg) filters.push_back({config_.foot_node_ids[leg], can::kMaxStandardId, false});
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) filters.push_back({config_.foot_node_ids[leg], can::kMaxStandardId, false});
   filters.push_back({config_.trunk_node_id, can::kMaxStandardId, false});
   filters.push_back({config_.trunk_node_id + 1, can::kMaxStandardId, false});
   bus_.set_filters(filters);
@@ -124,9 +124,9 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
       return fault();
     }
   }
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     if (foot_heard_ns_[leg] < asked) {
-      trip("%s foot sensor (node %u) is silent", kLegNames[leg].data(), config_.foot_node_ids[leg]);
+      trip("%s foot sensor (node %u) is silent", kHardwareLegNames[leg].data(), config_.foot_node_ids[leg]);
       return fault();
     }
   }
@@ -155,8 +155,8 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
     const int steps = static_cast<int>(std::ceil(distance / config_.safety.stand_ramp_speed_rad_s / period_s_));
     for (int step = 1; step <= steps && !tripped(); ++step) {
       const double remaining = 1.0 - static_cast<double>(step) / steps;
-      PerLeg<JointCommand> ramp{};
-      for (int leg = 0; leg < kNumLegs; ++leg) {
+      PerLeg<JointCommand> ramp(kHardwareLegs);
+      for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
         ramp[leg].hip_angle_rad = start[joint_index(leg, true)] * remaining;
         ramp[leg].knee_flexion_rad = start[joint_index(leg, false)] * remaining;
       }
@@ -193,7 +193,7 @@ void CanPlant::finish() {
 }
 
 void CanPlant::command(const PerLeg<JointCommand>& commands) {
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     JointCommand c = commands[leg];
     const JointConfig& hip = config_.hips[leg];
     const JointConfig& knee = config_.knees[leg];
@@ -219,7 +219,7 @@ void CanPlant::command(const PerLeg<JointCommand>& commands) {
 
 void CanPlant::send_commands() {
   std::array<can::CanFrame, kNumJoints> frames;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     for (const bool hip : {true, false}) {
       const int j = joint_index(leg, hip);
       const JointConfig& joint = *joints_[j];
@@ -259,11 +259,11 @@ bool CanPlant::handle(const can::CanFrame& frame, std::int64_t now_ns) {
     ++unexpected_frames_;
     return false;
   }
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     if (frame.id != config_.foot_node_ids[leg]) continue;
     const auto reading = decode_foot(frame, frame.id);
     if (!reading) break;
-    if (reading->fault) trip("%s foot sensor reports a fault", kLegNames[leg].data());
+    if (reading->fault) trip("%s foot sensor reports a fault", kHardwareLegNames[leg].data());
     foot_force_[leg] = reading->force_n;
     foot_heard_ns_[leg] = now_ns;
     return true;
@@ -334,9 +334,9 @@ void CanPlant::check_watchdog(std::int64_t now_ns) {
       return;
     }
   }
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     if (silence(foot_heard_ns_[leg]) > timeout_ns_) {
-      trip("%s foot sensor silent for %.1f ms", kLegNames[leg].data(), silence(foot_heard_ns_[leg]) * 1e-6);
+      trip("%s foot sensor silent for %.1f ms", kHardwareLegNames[leg].data(), silence(foot_heard_ns_[leg]) * 1e-6);
       return;
     }
   }
@@ -400,7 +400,8 @@ PlantState CanPlant::state() const {
     s.trunk.pitch_rad = std::numeric_limits<double>::quiet_NaN();
     fault_seen_.store(true, std::memory_order_release);
   }
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  s.legs = PerLeg<LegState>(kHardwareLegs);
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     LegState& l = s.legs[leg];
     l.hip_angle_rad = position_[joint_index(leg, true)];
     l.knee_flexion_rad = position_[joint_index(leg, false)];

@@ -13,7 +13,7 @@ namespace cpgmatch::robot {
 namespace {
 
 // Every joint must be described: the four legs' hip and knee.
-std::string joint_name(int leg, bool hip) { return fmt::format("{}_{}", kLegNames[leg], hip ? "hip" : "knee"); }
+std::string joint_name(int leg, bool hip) { return fmt::format("{}_{}", kHardwareLegNames[leg], hip ? "hip" : "knee"); }
 
 JointConfig load_joint(const YamlReader& j, const std::string& name, const MitRanges& ranges) {
   j.reject_unknown_keys({"node_id", "gear_ratio", "direction", "zero_offset_rad", "position_min_rad",
@@ -135,7 +135,7 @@ RobotConfig load_robot_config(const std::string& path) {
 
   const YamlReader joints = r.child("joints");
   std::set<std::string> known;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     known.insert(joint_name(leg, true));
     known.insert(joint_name(leg, false));
   }
@@ -151,7 +151,7 @@ RobotConfig load_robot_config(const std::string& path) {
     const auto [it, fresh] = node_owner.emplace(id, who);
     if (!fresh) at.fail(key, fmt::format("node id {} is already used by {}", id, it->second));
   };
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     for (const bool hip : {true, false}) {
       const std::string name = joint_name(leg, hip);
       const YamlReader j = joints.child(name);
@@ -163,12 +163,12 @@ RobotConfig load_robot_config(const std::string& path) {
 
   const YamlReader feet = r.child("feet");
   feet.reject_unknown_keys({"FL", "FR", "HL", "HR"});
-  for (int leg = 0; leg < kNumLegs; ++leg) {
-    const YamlReader foot = feet.child(std::string(kLegNames[leg]));
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
+    const YamlReader foot = feet.child(std::string(kHardwareLegNames[leg]));
     foot.reject_unknown_keys({"node_id"});
     if (!foot.has("node_id")) foot.fail("node_id", "is missing (the foot sensor's CAN id)");
     c.foot_node_ids[leg] = static_cast<std::uint32_t>(foot.get_int_in("node_id", 0, 1, static_cast<int>(can::kMaxStandardId)));
-    claim(foot, "node_id", c.foot_node_ids[leg], std::string(kLegNames[leg]) + " foot");
+    claim(foot, "node_id", c.foot_node_ids[leg], std::string(kHardwareLegNames[leg]) + " foot");
   }
   const YamlReader trunk = r.child("trunk_sensor");
   trunk.reject_unknown_keys({"node_id"});

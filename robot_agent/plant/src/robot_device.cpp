@@ -9,7 +9,7 @@ namespace cpgmatch::robot {
 
 RobotDevice::RobotDevice(const RobotConfig& config, can::CanBus& bus, DeviceImperfections imperfections)
     : config_(config), bus_(bus), imperfections_(imperfections), rng_(imperfections.seed) {
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     joints_[joint_index(leg, true)] = &config_.hips[leg];
     joints_[joint_index(leg, false)] = &config_.knees[leg];
     commands_[leg].hip_passive = true;  // motors start off
@@ -97,7 +97,7 @@ bool RobotDevice::all_commanded() const {
 }
 
 void RobotDevice::update(const PlantState& state, double dt_s) {
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     const std::array<double, 2> positions{state.legs[leg].hip_angle_rad, state.legs[leg].knee_flexion_rad};
     const std::array<double, 2> torques{state.legs[leg].hip_torque_nm, state.legs[leg].knee_torque_nm};
     for (int k = 0; k < 2; ++k) {
@@ -130,7 +130,7 @@ void RobotDevice::reply_all() {
 
 void RobotDevice::send_sensors() {
   ++sequence_;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
     FootReading foot;
     foot.force_n = state_.legs[leg].foot_normal_force_n + gaussian(imperfections_.foot_noise_n);
     if (imperfections_.contact_dropout > 0.0 && std::uniform_real_distribution<double>(0, 1)(rng_) < imperfections_.contact_dropout) {

@@ -68,7 +68,7 @@ std::vector<MeasureStats> energy_claim(const StudyTrials& s, int initial_last, i
 double knee_steady_share_median(const StudyTrials& s) {
   std::vector<double> shares;
   for (const auto& t : s.trials) {
-    if (!t.walked() || !(t.summed_torque_nm > 0.0)) continue;
+    if (!t.walked() || !(t.summed_torque_nm > 0.0) || t.energy.knee.empty()) continue;  // no per-leg energy: unknown
     double steady = 0.0;
     for (const auto& knee : t.energy.knee) steady += std::abs(knee.signed_mean_torque_nm);
     if (std::isfinite(steady)) shares.push_back(steady / t.summed_torque_nm);

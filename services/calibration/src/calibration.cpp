@@ -41,8 +41,16 @@ double scale_of(const ModelValue& value, double start) {
   return start > 0.0 ? start : 0.1 * (value.upper - value.lower);
 }
 
+// The legs of the traces' robot (its first tick's); 4 for none, where nothing is fitted anyway.
+std::size_t leg_count(const std::vector<CalibrationTrace>& traces) {
+  for (const auto& t : traces) {
+    if (!t.measured.ticks.empty()) return t.measured.ticks.front().legs.size();
+  }
+  return 4;
+}
+
 void accumulate(ChannelRms& sum, const MeasuredTick& m, const MeasuredTick& s) {
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  for (std::size_t leg = 0; leg < m.legs.size(); ++leg) {
     sum.knee_rad += std::pow(s.legs[leg].knee_rad - m.legs[leg].knee_rad, 2);
     sum.hip_rad += std::pow(s.legs[leg].hip_rad - m.legs[leg].hip_rad, 2);
     sum.contact_mismatch += s.legs[leg].contact != m.legs[leg].contact ? 1.0 : 0.0;
@@ -86,7 +94,7 @@ struct Calibration::Impl {
       : start(start_model),
         traces(std::move(t)),
         options(std::move(o)),
-        loss(options.robust_rms * std::sqrt(static_cast<double>(kResidualsPerTick))),
+        loss(options.robust_rms * std::sqrt(static_cast<double>(residuals_per_tick(leg_count(traces))))),
         problem(problem_options()) {
     if (options.values.empty()) throw InputError("calibration: no model value to fit");
     if (traces.empty()) throw InputError("calibration: no trace");
@@ -109,7 +117,7 @@ struct Calibration::Impl {
         auto* cost = new ceres::DynamicNumericDiffCostFunction<TickResiduals, ceres::CENTRAL>(
             new TickResiduals(*cache, traces[k].measured, k, tick, options.scales), ceres::TAKE_OWNERSHIP, diff);
         cost->AddParameterBlock(static_cast<int>(n));
-        cost->SetNumResiduals(kResidualsPerTick);
+        cost->SetNumResiduals(residuals_per_tick(traces[k].measured.ticks[tick].legs.size()));
         problem.AddResidualBlock(cost, &loss, x.data());
       }
     }
@@ -151,14 +159,15 @@ struct Calibration::Impl {
       const double inf = std::numeric_limits<double>::infinity();
       return {inf, inf, inf, inf, inf, inf};
     }
-    std::size_t ticks = 0;
+    std::size_t ticks = 0, leg_ticks = 0;
     for (std::size_t k = 0; k < traces.size(); ++k) {
       for (std::size_t i = 0; i < traces[k].measured.ticks.size(); ++i) {
         accumulate(sum, traces[k].measured.ticks[i], (*replays)[k].ticks[i]);
         ++ticks;
+        leg_ticks += traces[k].measured.ticks[i].legs.size();
       }
     }
-    const double legs = static_cast<double>(ticks) * kNumLegs;
+    const double legs = static_cast<double>(leg_ticks);
     return {std::sqrt(sum.knee_rad / legs), std::sqrt(sum.hip_rad / legs), std::sqrt(sum.pitch_rad / ticks),
             std::sqrt(sum.speed_mps / ticks), sum.contact_mismatch / legs, std::sqrt(sum.foot_force_n / legs)};
   }

@@ -37,6 +37,17 @@ class Columns {
     }
     throw InputError(fmt::format("{}:1: no column '{}' (not a `cpgmatch rollout --trace` file?)", path_, name));
   }
+  // The legs, in column order: every NAME with a NAME_hip_target_rad column (make_csv_trace names them so).
+  std::vector<std::string> leg_names() const {
+    static constexpr std::string_view kSuffix = "_hip_target_rad";
+    std::vector<std::string> legs;
+    for (const auto name : names_) {
+      if (name.size() > kSuffix.size() && name.substr(name.size() - kSuffix.size()) == kSuffix) {
+        legs.emplace_back(name.substr(0, name.size() - kSuffix.size()));
+      }
+    }
+    return legs;
+  }
 
  private:
   std::string path_;
@@ -71,9 +82,13 @@ MeasuredTrace read_trace_csv(const std::string& path) {
   const Columns columns(path, header);
   const std::size_t time_col = columns.find("time_s"), pitch_col = columns.find("pitch_rad"),
                     vx_col = columns.find("vx_mps");
-  PerLeg<LegColumns> leg_cols{};
-  for (int leg = 0; leg < kNumLegs; ++leg) {
-    const std::string l(kLegNames[leg]);
+  const std::vector<std::string> leg_names = columns.leg_names();
+  if (leg_names.empty() || leg_names.size() > kMaxLegs) {
+    throw InputError(fmt::format("{}:1: {} legs (columns LEG_hip_target_rad); a trace has 1 to {}", path, leg_names.size(), kMaxLegs));
+  }
+  PerLeg<LegColumns> leg_cols(leg_names.size());
+  for (std::size_t leg = 0; leg < leg_names.size(); ++leg) {
+    const std::string& l = leg_names[leg];
     leg_cols[leg] = {columns.find(l + "_hip_target_rad"), columns.find(l + "_hip_rad"),
                      columns.find(l + "_knee_target_rad"), columns.find(l + "_knee_rad"), columns.find(l + "_contact"),
                      columns.find(l + "_foot_force_n")};
@@ -91,8 +106,9 @@ MeasuredTrace read_trace_csv(const std::string& path) {
     tick.time_s = number(path, line_no, cells, time_col, "time_s");
     tick.pitch_rad = number(path, line_no, cells, pitch_col, "pitch_rad");
     tick.vx_mps = number(path, line_no, cells, vx_col, "vx_mps");
-    for (int leg = 0; leg < kNumLegs; ++leg) {
-      const std::string l(kLegNames[leg]);
+    tick.legs = PerLeg<MeasuredLeg>(leg_names.size());
+    for (std::size_t leg = 0; leg < leg_names.size(); ++leg) {
+      const std::string& l = leg_names[leg];
       const LegColumns& c = leg_cols[leg];
       MeasuredLeg& m = tick.legs[leg];
       m.hip_target_rad = number(path, line_no, cells, c.hip_target, "hip_target_rad", l);

@@ -37,10 +37,14 @@ CommandSequence commands_of(const MeasuredTrace& trace, const CpgParameters& par
   commands.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     const MeasuredTick& tick = trace.ticks[i];
-    PerLeg<bool> contacts{};
-    for (int leg = 0; leg < kNumLegs; ++leg) contacts[leg] = tick.legs[leg].contact;
+    if (tick.legs.size() != controller.leg_count()) {
+      throw InputError(fmt::format("{}: the trace has {} legs, the settings' robot {}", trace.source, tick.legs.size(),
+                                   controller.leg_count()));
+    }
+    PerLeg<bool> contacts(tick.legs.size());
+    for (std::size_t leg = 0; leg < tick.legs.size(); ++leg) contacts[leg] = tick.legs[leg].contact;
     const ControllerOutput out = controller.update(contacts);
-    for (int leg = 0; leg < kNumLegs; ++leg) {
+    for (std::size_t leg = 0; leg < tick.legs.size(); ++leg) {
       const JointCommand& c = out.commands[leg];
       const MeasuredLeg& m = tick.legs[leg];
       const double hip_error = std::abs(c.hip_angle_rad - m.hip_target_rad);
@@ -49,7 +53,7 @@ CommandSequence commands_of(const MeasuredTrace& trace, const CpgParameters& par
         throw InputError(fmt::format(
             "{}: at t = {:.4f} s the {} command ({:.4f}, {:.4f}) rad is not what these CPG parameters and settings "
             "give ({:.4f}, {:.4f}) rad: the trace was made with other ones",
-            trace.source, tick.time_s, kLegNames[leg], m.hip_target_rad, m.knee_target_rad, c.hip_angle_rad,
+            trace.source, tick.time_s, settings.controller.legs.names.at(leg), m.hip_target_rad, m.knee_target_rad, c.hip_angle_rad,
             c.knee_flexion_rad));
       }
     }
@@ -61,13 +65,14 @@ CommandSequence commands_of(const MeasuredTrace& trace, const CpgParameters& par
 std::optional<MeasuredTrace> replay(const sim::MortiModel& model, const CommandSequence& commands,
                                     const ReplaySetup& setup) {
   sim::OdePlant plant(model, setup.terrain, setup.seed);
-  ContactSensor sensor(setup.settings.contact_sensor, setup.seed);
+  const std::size_t legs = model.leg_count();
+  ContactSensor sensor(setup.settings.contact_sensor, setup.seed, legs);
   const RolloutClock clock(plant, setup.settings);
   const double dt = plant.time_step_s();
   MeasuredTrace out;
   out.source = "replay";
   out.ticks.reserve(commands.size());
-  PerLeg<bool> contacts{};
+  PerLeg<bool> contacts(legs, true);
   ControllerOutput output;  // only its commands are used: the replay's sample for to_measured_tick
   // run_rollout's clock, so that a replay on the model that made the trace gives the trace again.
   for (long step = 0; out.ticks.size() < commands.size(); ++step) {

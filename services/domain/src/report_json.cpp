@@ -55,7 +55,8 @@ nlohmann::json joints_json(const PerLeg<JointEnergy>& joints) {
 
 void joints_from_json(const nlohmann::json& j, PerLeg<JointEnergy>& joints) {
   if (!j.is_array()) return;
-  for (std::size_t leg = 0; leg < joints.size() && leg < j.size(); ++leg) {
+  joints = PerLeg<JointEnergy>(std::min<std::size_t>(j.size(), kMaxLegs));  // one per leg the report had
+  for (std::size_t leg = 0; leg < joints.size(); ++leg) {
     for_each_joint_field(joints[leg], [&](const char* key, double& v) { v = number_or_nan(j[leg], key); });
   }
 }

@@ -9,7 +9,8 @@ MeasuredTick to_measured_tick(const TraceSample& sample) {
   tick.time_s = sample.time_s;
   tick.pitch_rad = sample.state->trunk.pitch_rad;
   tick.vx_mps = sample.state->trunk.vx_mps;
-  for (int leg = 0; leg < kNumLegs; ++leg) {
+  tick.legs = PerLeg<MeasuredLeg>(sample.state->legs.size());
+  for (std::size_t leg = 0; leg < tick.legs.size(); ++leg) {
     const JointCommand& cmd = sample.output->commands[leg];
     const LegState& ls = sample.state->legs[leg];
     tick.legs[leg] = {cmd.hip_angle_rad, ls.hip_angle_rad, cmd.knee_flexion_rad, ls.knee_flexion_rad,

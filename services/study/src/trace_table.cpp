@@ -17,15 +17,16 @@ namespace {
 
 static_assert(std::endian::native == std::endian::little, "the trace BLOB is written as the host's float64");
 
-// Per tick: time_s, pitch_rad, vx_mps, then per leg (FL, FR, HL, HR) hip_target_rad, hip_rad,
-// knee_target_rad, knee_rad, contact (0 or 1), foot_force_n.
+// Per tick: time_s, pitch_rad, vx_mps, then per leg in the robot's leg order hip_target_rad, hip_rad,
+// knee_target_rad, knee_rad, contact (0 or 1), foot_force_n. The leg count follows from the BLOB's size and
+// the tick count (stores written before robots were data hold four legs, FL FR HL HR, the same layout).
 constexpr const char* kLayout = "float64-le v1: time_s pitch_rad vx_mps [hip_target_rad hip_rad knee_target_rad "
-                                "knee_rad contact foot_force_n] x FL FR HL HR";
-constexpr std::size_t kTickValues = 3 + 6 * kNumLegs;
+                                "knee_rad contact foot_force_n] x legs";
+constexpr std::size_t kTickValues(std::size_t legs) { return 3 + 6 * legs; }
 
 std::vector<double> pack(const domain::MeasuredTrace& trace) {
   std::vector<double> v;
-  v.reserve(trace.ticks.size() * kTickValues);
+  v.reserve(trace.ticks.size() * kTickValues(trace.ticks.empty() ? 0 : trace.ticks.front().legs.size()));
   for (const auto& t : trace.ticks) {
     v.insert(v.end(), {t.time_s, t.pitch_rad, t.vx_mps});
     for (const auto& l : t.legs) {
@@ -36,10 +37,13 @@ std::vector<double> pack(const domain::MeasuredTrace& trace) {
 }
 
 std::vector<domain::MeasuredTick> unpack(const void* blob, std::size_t bytes, std::size_t ticks, const std::string& what) {
-  if (bytes != ticks * kTickValues * sizeof(double)) {
-    throw std::runtime_error(fmt::format("{}: {} bytes of ticks, expected {} ticks of {} values", what, bytes, ticks, kTickValues));
+  const std::size_t values = ticks == 0 ? 0 : bytes / sizeof(double) / ticks;
+  const std::size_t legs = values >= 3 ? (values - 3) / 6 : 0;
+  if (ticks > 0 && (bytes != ticks * kTickValues(legs) * sizeof(double) || legs == 0 || legs > kMaxLegs)) {
+    throw std::runtime_error(fmt::format("{}: {} bytes of ticks are not {} ticks of 3 + 6 x (1..{} legs) values", what,
+                                         bytes, ticks, kMaxLegs));
   }
-  std::vector<double> v(ticks * kTickValues);
+  std::vector<double> v(ticks * kTickValues(legs));
   if (bytes > 0) std::memcpy(v.data(), blob, bytes);
   std::vector<domain::MeasuredTick> out(ticks);
   const double* p = v.data();
@@ -47,6 +51,7 @@ std::vector<domain::MeasuredTick> unpack(const void* blob, std::size_t bytes, st
     t.time_s = *p++;
     t.pitch_rad = *p++;
     t.vx_mps = *p++;
+    t.legs = PerLeg<domain::MeasuredLeg>(legs);
     for (auto& l : t.legs) {
       l.hip_target_rad = *p++;
       l.hip_rad = *p++;

@@ -5,6 +5,7 @@
 #include <mutex>
 #include <numbers>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include <ode/ode.h>
@@ -146,7 +147,8 @@ struct ToeContacts {
 
 struct OdePlant::Impl {
   struct LegBodies {
-    dBodyID femur, shank, foot;
+    dBodyID femur, shank, foot;  // foot: nullptr for a two-segment leg (the toe is on the shank)
+    dBodyID toe_body;
     PlanarJoint hip, knee, ankle;
     dGeomID toe;
     double knee_motor_flexion = 0.0;  // absolute flexion of the knee motor's output (spring rest)
@@ -166,8 +168,8 @@ struct OdePlant::Impl {
   bool shifted = false;
   dBodyID trunk = nullptr;
   dJointID rail = nullptr;
-  PerLeg<LegBodies> legs{};
-  PerLeg<JointCommand> commands{};
+  std::vector<LegBodies> legs;
+  PerLeg<JointCommand> commands;
   std::vector<dJointFeedback> contact_feedback;
   struct ActiveContact {
     int leg;
@@ -202,7 +204,8 @@ struct OdePlant::Impl {
     terrain_space = dHashSpaceCreate(nullptr);
     build_terrain(seed);
     build_robot();
-    contact_feedback.resize(kNumLegs * kMaxContactsPerToe);
+    commands = PerLeg<JointCommand>(legs.size());
+    contact_feedback.resize(legs.size() * kMaxContactsPerToe);
   }
 
   ~Impl() {
@@ -285,7 +288,8 @@ struct OdePlant::Impl {
     const double a0 = model.femur_mount_angle_rad;
     const double b0 = model.knee_stand_flexion_rad;
     const Vec2 df = direction(a0), ds = direction(a0 - b0), dp = direction(a0);
-    const double leg_drop = -(model.femur.length_m * df.y + model.shank.length_m * ds.y + model.foot.length_m * dp.y);
+    const double foot_drop = model.has_ankle ? model.foot.length_m * dp.y : 0.0;
+    const double leg_drop = -(model.femur.length_m * df.y + model.shank.length_m * ds.y + foot_drop);
     const double hip_height = leg_drop + model.toe_radius_m + 0.001;
 
     trunk = dBodyCreate(world);
@@ -296,26 +300,39 @@ struct OdePlant::Impl {
     rail = dJointCreatePlane2D(world, nullptr);
     dJointAttach(rail, trunk, nullptr);
 
-    for (int i = 0; i < kNumLegs; ++i) {
+    const std::vector<double> hip_x = model.hip_positions_m();
+    legs.resize(hip_x.size());
+    for (std::size_t i = 0; i < legs.size(); ++i) {
       auto& leg = legs[i];
-      const Vec2 hip{(is_front(i) ? 0.5 : -0.5) * model.hip_spacing_m, hip_height};
+      const Vec2 hip{hip_x[i], hip_height};
       const Vec2 knee{hip.x + model.femur.length_m * df.x, hip.y + model.femur.length_m * df.y};
       const Vec2 ankle{knee.x + model.shank.length_m * ds.x, knee.y + model.shank.length_m * ds.y};
       leg.femur = make_segment(hip, a0, model.femur);
       add_reflected_inertia(leg.femur, model.hip_motor.reflected_inertia_kg_m2);
       leg.shank = make_segment(knee, a0 - b0, model.shank);
-      leg.foot = make_segment(ankle, a0, model.foot);
+      // A knee motor that drives the knee directly turns with it: its rotor's inertia loads the shank.
+      if (model.knee_drive == MortiModel::KneeDrive::kPositionPd) add_reflected_inertia(leg.shank, model.knee_motor.reflected_inertia_kg_m2);
+      leg.foot = model.has_ankle ? make_segment(ankle, a0, model.foot) : nullptr;
+      // Joints in the order hip, knee, ankle, then the stop motors: ODE solves its rows in creation order,
+      // and this is the order every earlier release used (the same bits for Morti).
       leg.hip = make_joint(trunk, leg.femur, hip);
       leg.knee = make_joint(leg.femur, leg.shank, knee);
-      leg.ankle = make_joint(leg.shank, leg.foot, ankle);
+      if (model.has_ankle) leg.ankle = make_joint(leg.shank, leg.foot, ankle);
       // Knee angle = -(flexion - b0): stops keep the flexion inside its mechanical range.
       leg.knee.set_stops(world, b0 - model.knee_max_flexion_rad, b0 - model.knee_min_flexion_rad);
-      // The parallel mechanism's end stops: the foot turns at most ankle_range_rad either way from its
-      // standing pose relative to the shank.
-      leg.ankle.set_stops(world, -model.ankle_range_rad, model.ankle_range_rad);
       leg.toe = dCreateSphere(nullptr, model.toe_radius_m);
-      dGeomSetBody(leg.toe, leg.foot);
-      dGeomSetOffsetPosition(leg.toe, 0.0, -0.5 * model.foot.length_m, 0.0);
+      if (model.has_ankle) {
+        // The parallel mechanism's end stops: the foot turns at most ankle_range_rad either way from its
+        // standing pose relative to the shank.
+        leg.ankle.set_stops(world, -model.ankle_range_rad, model.ankle_range_rad);
+        leg.toe_body = leg.foot;
+        dGeomSetBody(leg.toe, leg.foot);
+        dGeomSetOffsetPosition(leg.toe, 0.0, -0.5 * model.foot.length_m, 0.0);
+      } else {
+        leg.toe_body = leg.shank;  // a two-segment leg: the toe at the shank's end
+        dGeomSetBody(leg.toe, leg.shank);
+        dGeomSetOffsetPosition(leg.toe, 0.0, -0.5 * model.shank.length_m, 0.0);
+      }
       leg.knee_motor_flexion = b0;
     }
   }
@@ -325,7 +342,7 @@ struct OdePlant::Impl {
   }
 
   void apply_actuators() {
-    for (int i = 0; i < kNumLegs; ++i) {
+    for (std::size_t i = 0; i < legs.size(); ++i) {
       auto& leg = legs[i];
       const JointCommand& cmd = commands[i];
 
@@ -343,12 +360,29 @@ struct OdePlant::Impl {
       leg.hip.add_torque(tau_hip + drag);
       leg.hip_torque = tau_hip;
 
-      // Knee: the motor positions the rest angle of the series knee spring. Its output moves within its
-      // torque-speed line (knee_speed_limit) and is back-driven when the spring torque exceeds the stall
-      // torque.
       const double beta = knee_flexion(leg);
       const double beta_rate = -leg.knee.rate();
       const auto& km = model.knee_motor;
+      // A spring across the knee, parallel to its motor, at rest standing (none when its stiffness is 0).
+      const double parallel = -model.knee_parallel_spring.stiffness_nm_per_rad * (beta - model.knee_stand_flexion_rad) -
+                              model.knee_parallel_spring.damping_nm_s_per_rad * beta_rate;
+      if (model.knee_drive == MortiModel::KneeDrive::kPositionPd) {
+        // Knee driven directly: a PD on the flexion within the motor's torque-speed line; the motor turns
+        // with the knee.
+        const double target = model.knee_stand_flexion_rad + cmd.knee_flexion_rad;
+        const double flex = limit_torque(km.kp_nm_per_rad * (target - beta) - km.kd_nm_s_per_rad * beta_rate, beta_rate, km);
+        // The gearbox drags whether the motor drives or is back-driven, as the hip's does.
+        const double gearbox = -km.viscous_friction_nm_s_per_rad * beta_rate;
+        leg.knee.add_torque(-(flex + parallel + gearbox) +
+                            dry_friction(model.knee_joint_friction_nm + km.coulomb_friction_nm, leg.knee.rate()));
+        leg.knee_torque = flex;
+        leg.knee_motor_speed = beta_rate;
+        if (leg.foot != nullptr) apply_biarticular(leg);
+        continue;
+      }
+      // Knee: the motor positions the rest angle of the series knee spring. Its output moves within its
+      // torque-speed line (knee_speed_limit) and is back-driven when the spring torque exceeds the stall
+      // torque.
       const double k = model.knee_spring.stiffness_nm_per_rad;
       const double target = model.knee_stand_flexion_rad + cmd.knee_flexion_rad;
       double speed = model.knee_motor_bandwidth_per_s * (target - leg.knee_motor_flexion);
@@ -364,24 +398,27 @@ struct OdePlant::Impl {
       const double spring_torque = k * (leg.knee_motor_flexion - beta);
       const double flex_torque = spring_torque - model.knee_spring.damping_nm_s_per_rad * beta_rate;
       // Positive hinge torque extends the knee; the bearing's friction opposes the hinge's own rate.
-      leg.knee.add_torque(-flex_torque + dry_friction(model.knee_joint_friction_nm, leg.knee.rate()));
+      leg.knee.add_torque(-(flex_torque + parallel) + dry_friction(model.knee_joint_friction_nm, leg.knee.rate()));
       leg.knee_torque = spring_torque;
-
-      // Biarticular spring: holds the foot parallel to the femur (the parallel mechanism's rest).
-      const double deviation = leg.knee.angle() + leg.ankle.angle();
-      const double deviation_rate = leg.knee.rate() + leg.ankle.rate();
-      const double tau_b = -model.biarticular_spring.stiffness_nm_per_rad * deviation -
-                           model.biarticular_spring.damping_nm_s_per_rad * deviation_rate;
-      dBodyAddTorque(leg.foot, 0, 0, tau_b);
-      dBodyAddTorque(leg.femur, 0, 0, -tau_b);
+      if (leg.foot != nullptr) apply_biarticular(leg);
     }
+  }
+
+  // Biarticular spring: holds the foot parallel to the femur (the parallel mechanism's rest).
+  void apply_biarticular(const LegBodies& leg) {
+    const double deviation = leg.knee.angle() + leg.ankle.angle();
+    const double deviation_rate = leg.knee.rate() + leg.ankle.rate();
+    const double tau_b = -model.biarticular_spring.stiffness_nm_per_rad * deviation -
+                         model.biarticular_spring.damping_nm_s_per_rad * deviation_rate;
+    dBodyAddTorque(leg.foot, 0, 0, tau_b);
+    dBodyAddTorque(leg.femur, 0, 0, -tau_b);
   }
 
   // The stop motors learn the joint angles they limit (PlanarJoint::update_stops) before every solve.
   void update_joint_stops() {
     for (const auto& leg : legs) {
       leg.knee.update_stops();
-      leg.ankle.update_stops();
+      if (leg.foot != nullptr) leg.ankle.update_stops();
     }
   }
 
@@ -392,7 +429,7 @@ struct OdePlant::Impl {
     const double erp = dt * c.stiffness_n_per_m / (dt * c.stiffness_n_per_m + c.damping_n_s_per_m);
     const double cfm = 1.0 / (dt * c.stiffness_n_per_m + c.damping_n_s_per_m);
     std::size_t fb_index = 0;
-    for (int i = 0; i < kNumLegs; ++i) {
+    for (std::size_t i = 0; i < legs.size(); ++i) {
       legs[i].normal_force = 0.0;
       // Let the hash space find the terrain geoms near this toe (rough ground has hundreds of tiles).
       ToeContacts found{legs[i].toe, geoms, 0};
@@ -424,10 +461,10 @@ struct OdePlant::Impl {
           contact.surface.motion1 = -belt_speed();  // the belt surface moves backwards (-x)
         }
         dJointID j = dJointCreateContact(world, contact_group, &contact);
-        dJointAttach(j, legs[i].foot, nullptr);
+        dJointAttach(j, legs[i].toe_body, nullptr);
         if (fb_index < contact_feedback.size()) {
           dJointSetFeedback(j, &contact_feedback[fb_index]);
-          contacts_this_step.push_back({i, {geoms[k].normal[0], geoms[k].normal[1], geoms[k].normal[2]}});
+          contacts_this_step.push_back({static_cast<int>(i), {geoms[k].normal[0], geoms[k].normal[1], geoms[k].normal[2]}});
           ++fb_index;
         }
       }
@@ -474,7 +511,7 @@ struct OdePlant::Impl {
     for (const auto& leg : legs) {
       project_onto_plane(leg.femur);
       project_onto_plane(leg.shank);
-      project_onto_plane(leg.foot);
+      if (leg.foot != nullptr) project_onto_plane(leg.foot);
     }
   }
 
@@ -501,7 +538,10 @@ OdePlant::OdePlant(const MortiModel& model, const TerrainSpec& terrain, std::uin
 
 OdePlant::~OdePlant() = default;
 
-void OdePlant::command(const PerLeg<JointCommand>& commands) { impl_->commands = commands; }
+void OdePlant::command(const PerLeg<JointCommand>& commands) {
+  if (commands.size() != impl_->legs.size()) throw std::invalid_argument("OdePlant::command: one command per leg");
+  impl_->commands = commands;
+}
 
 void OdePlant::advance(double dt_s) {
   const long steps = std::max(1L, std::lround(dt_s / impl_->dt));
@@ -525,7 +565,8 @@ PlantState OdePlant::state() const {
   s.trunk.vx_mps = v[0] + m.belt_speed();
   s.trunk.height_m = p[1];
   s.trunk.pitch_rad = body_angle_z(m.trunk);
-  for (int i = 0; i < kNumLegs; ++i) {
+  s.legs = PerLeg<LegState>(m.legs.size());
+  for (std::size_t i = 0; i < m.legs.size(); ++i) {
     const auto& leg = m.legs[i];
     s.legs[i].hip_angle_rad = leg.hip.angle();
     s.legs[i].knee_flexion_rad = m.knee_flexion(leg) - m.model.knee_stand_flexion_rad;

@@ -30,7 +30,7 @@
 
 namespace cpgmatch::robot {
 
-inline constexpr int kNumJoints = 2 * kNumLegs;
+inline constexpr int kNumJoints = 2 * static_cast<int>(kHardwareLegs);
 // Joint index: leg * 2 + 0 for the hip, + 1 for the knee.
 inline constexpr int joint_index(int leg, bool hip) { return leg * 2 + (hip ? 0 : 1); }
 
@@ -118,13 +118,13 @@ class CanPlant final : public Plant {
   std::array<std::unique_ptr<MitMotor>, kNumJoints> motors_;
 
   // Targets (joint units) after the limits, and what went out (motor units).
-  PerLeg<JointCommand> targets_{};
+  PerLeg<JointCommand> targets_ = PerLeg<JointCommand>(kHardwareLegs);
   std::array<MotorCommand, kNumJoints> sent_{};
   // Latest feedback, joint units, and when it arrived (monotonic ns; 0 = never).
   std::array<double, kNumJoints> position_{}, velocity_{}, torque_{};
   std::array<std::int64_t, kNumJoints> motor_heard_ns_{};
-  PerLeg<double> foot_force_{};
-  PerLeg<std::int64_t> foot_heard_ns_{};
+  PerLeg<double> foot_force_ = PerLeg<double>(kHardwareLegs, 0.0);
+  PerLeg<std::int64_t> foot_heard_ns_ = PerLeg<std::int64_t>(kHardwareLegs, 0);
   TrunkState trunk_{};
   std::int64_t trunk_heard_ns_ = 0;
   double time_s_ = 0.0;

@@ -9,6 +9,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include "cpgmatch/legs.hpp"
@@ -16,6 +17,11 @@
 #include "cpgmatch/robot/mit_protocol.hpp"
 
 namespace cpgmatch::robot {
+
+// The legs this hardware description knows: Morti's layout (joints FL_hip ... HR_knee, feet FL ... HR).
+// A hardware description by joint names from the robot's YAML replaces it (issue 31).
+inline constexpr std::size_t kHardwareLegs = 4;
+inline constexpr std::array<std::string_view, kHardwareLegs> kHardwareLegNames{"FL", "FR", "HL", "HR"};
 
 struct JointConfig {
   std::string name;                  // FL_hip, FL_knee, ...
@@ -64,9 +70,9 @@ struct RobotConfig {
   std::uint32_t host_id = 0;              // CAN id the motors reply on
   MitRanges ranges;                       // the firmware's ranges (motor-shaft units)
   double control_rate_hz = 500.0;
-  PerLeg<JointConfig> hips;
-  PerLeg<JointConfig> knees;
-  PerLeg<std::uint32_t> foot_node_ids{};
+  PerLeg<JointConfig> hips = PerLeg<JointConfig>(kHardwareLegs);
+  PerLeg<JointConfig> knees = PerLeg<JointConfig>(kHardwareLegs);
+  PerLeg<std::uint32_t> foot_node_ids = PerLeg<std::uint32_t>(kHardwareLegs, 0);
   std::uint32_t trunk_node_id = 0;        // and trunk_node_id + 1
   SafetyConfig safety;
 

@@ -81,7 +81,7 @@ class RobotDevice {
   std::array<std::int64_t, kNumJoints> last_command_ns_{};
   std::array<bool, kNumJoints> timed_out_{};  // made safe by the command watchdog, until the next command
   std::array<double, kNumJoints> zero_{};  // motor position at the last set-zero
-  PerLeg<JointCommand> commands_{};
+  PerLeg<JointCommand> commands_ = PerLeg<JointCommand>(kHardwareLegs);
   PlantState state_{};
   std::array<double, kNumJoints> position_{}, velocity_{}, torque_{};
   std::array<double, kNumJoints> encoder_{};  // the motor side of the gear play

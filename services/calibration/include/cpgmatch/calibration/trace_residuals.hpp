@@ -26,11 +26,12 @@ struct ResidualScales {
   double foot_force_n = 2.0;
 };
 
-// Residuals per tick: 4 knees, 4 hips, pitch, speed, 4 contacts, 4 foot forces.
-inline constexpr int kResidualsPerTick = 18;
+// Residuals per tick of a robot with `legs` legs: the knees, the hips, pitch, speed, the contacts and the
+// foot forces (18 for four legs).
+inline constexpr int residuals_per_tick(std::size_t legs) { return 2 + 4 * static_cast<int>(legs); }
 
 // Writes the residuals of ticks [first, last) of `simulated` against `measured` to `out`
-// (kResidualsPerTick per tick, in that order).
+// (residuals_per_tick per tick, in that order).
 void tick_residuals(const MeasuredTrace& measured, const MeasuredTrace& simulated, std::size_t first, std::size_t last,
                     const ResidualScales& scales, double* out);
 

@@ -32,7 +32,7 @@ struct MeasuredTick {
   double time_s = 0.0;
   double pitch_rad = 0.0;  // + nose up
   double vx_mps = 0.0;     // forward speed over the ground
-  PerLeg<MeasuredLeg> legs{};
+  PerLeg<MeasuredLeg> legs;  // one per leg of the robot
 };
 
 struct MeasuredTrace {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace cpgmatch {
 class YamlReader;
@@ -66,8 +67,16 @@ struct MortiModel {
   double knee_max_flexion_rad = 2.4;
   double ankle_range_rad = 1.2;         // ankle (foot vs shank) stops, +- this from the standing pose
   double knee_joint_friction_nm = 0.0;  // dry friction of the knee bearing, N m
-  SpringModel knee_spring{15.0, 0.05};
-  SpringModel biarticular_spring{4.0, 0.01};
+  SpringModel knee_spring{15.0, 0.05};        // in series with the knee motor (kSeriesElastic)
+  SpringModel biarticular_spring{4.0, 0.01};  // foot to femur (legs with an ankle)
+  // A spring across the knee, parallel to its motor, at rest in the standing pose; stiffness 0: none.
+  SpringModel knee_parallel_spring{0.0, 0.0};
+  // Three segments (femur, shank, foot held by the biarticular spring) or two (the toe at the shank's end).
+  bool has_ankle = true;
+  // How the knee motor drives the knee: positioning the rest angle of the series knee spring (Morti), or
+  // directly, a PD on the knee flexion with knee_motor's gains within its torque-speed line.
+  enum class KneeDrive { kSeriesElastic, kPositionPd };
+  KneeDrive knee_drive = KneeDrive::kSeriesElastic;
   MotorModel hip_motor{4.0, 12.0, 40.0, 0.6};
   MotorModel knee_motor{4.0, 12.0, 0.0, 0.0};
   double knee_motor_bandwidth_per_s = 60.0;  // knee motor position loop: speed = bandwidth * error
@@ -75,8 +84,18 @@ struct MortiModel {
   FootSensorModel foot_sensor;
   double physics_rate_hz = 1000.0;
   double gravity_m_s2 = 9.81;
+  // Fore-aft position of each leg's hip on the trunk (m, + forward), one per leg in the robot's leg order.
+  // Empty: Morti's four legs FL FR HL HR at +-hip_spacing_m / 2 (a model file gives no layout).
+  std::vector<double> hip_x_m;
 
-  double total_mass_kg() const { return trunk_mass_kg + 4.0 * (femur.mass_kg + shank.mass_kg + foot.mass_kg); }
+  std::vector<double> hip_positions_m() const {
+    if (!hip_x_m.empty()) return hip_x_m;
+    return {0.5 * hip_spacing_m, 0.5 * hip_spacing_m, -0.5 * hip_spacing_m, -0.5 * hip_spacing_m};
+  }
+  std::size_t leg_count() const { return hip_positions_m().size(); }
+  double total_mass_kg() const {
+    return trunk_mass_kg + static_cast<double>(leg_count()) * (femur.mass_kg + shank.mass_kg + (has_ankle ? foot.mass_kg : 0.0));
+  }
 };
 
 // Loads a model YAML; throws InputError naming the file, line and field on bad input.

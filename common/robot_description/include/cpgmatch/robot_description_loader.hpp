@@ -1,0 +1,49 @@
+// Reads a robot description (a URDF and the robot.yaml beside it) with urdfdom and yaml-cpp, and checks it.
+//
+// Every problem is an InputError naming the element and where it is: "robot.yaml:14: field 'legs[2].knee':
+// joint 'HL_knee_joint' is not in robot.urdf", "robot.urdf:31: link 'FL_foot': mass must be > 0 kg".
+// Executables turn it into exit code 2; the optimizer service refuses a study with it at submit.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "cpgmatch/robot_description.hpp"
+
+namespace cpgmatch {
+
+// The folder of shipped robots: $CPGMATCH_CONFIG_DIR/robots, else the build's configs/robots.
+std::filesystem::path shipped_robots_dir();
+// Names of the shipped robots (folders of shipped_robots_dir() that hold a robot.yaml), sorted.
+std::vector<std::string> shipped_robot_names();
+
+// `name_or_path`: a shipped robot's name ("morti"), a folder holding robot.yaml, or a robot.yaml path.
+// The URDF is the file robot.yaml's `urdf:` key names, relative to robot.yaml's folder.
+RobotDescription load_robot(const std::string& name_or_path);
+
+// The same from the two texts (a study spec carries them); the sources stand in for file names in messages.
+RobotDescription parse_robot(const std::string& yaml_text, const std::string& yaml_source,
+                             const std::string& urdf_text, const std::string& urdf_source);
+
+// The URDF alone: links, joints and the root, checked to be a tree whose links all have a positive mass
+// and an inertia. Used by parse_robot and by `cpgmatch robot init` (which has no robot.yaml yet).
+struct UrdfModel {
+  std::string robot_name;
+  std::string root_link;
+  std::vector<LinkDescription> links;
+  std::vector<JointDescription> joints;
+};
+UrdfModel parse_urdf(const std::string& urdf_text, const std::string& urdf_source);
+
+}  // namespace cpgmatch
+
+#include "cpgmatch/controller.hpp"
+
+namespace cpgmatch {
+
+// The controller's view of the robot: its legs (names, groups) and its gaits. The gait `config.gait` names
+// is kept when the robot has it; otherwise the robot's default gait (its first) is used.
+void apply_robot_legs(ControllerConfig& config, const RobotDescription& robot);
+
+}  // namespace cpgmatch

@@ -1,0 +1,323 @@
+// A robot as data: Morti read from configs/robots/morti/ (URDF + robot.yaml) against the hand-written model
+// configs/model/morti.yaml, and every bad description refused with the element and its file:line.
+#include <cmath>
+#include <random>
+#include <regex>
+
+#include <gtest/gtest.h>
+
+#include "cpgmatch/errors.hpp"
+#include "cpgmatch/robot_description_loader.hpp"
+#include "cpgmatch/sim/ode_plant.hpp"
+#include "cpgmatch/sim/planar_leg_model.hpp"
+#include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/text.hpp"
+
+namespace cpgmatch {
+namespace {
+
+std::string robot_dir() { return shipped_robots_dir().string() + "/morti"; }
+
+TEST(ShippedRobots, MortiIsListedAndLoads) {
+  const auto names = shipped_robot_names();
+  ASSERT_NE(std::find(names.begin(), names.end(), "morti"), names.end());
+  for (const std::string& name : names) {
+    SCOPED_TRACE(name);
+    const RobotDescription robot = load_robot(name);
+    EXPECT_EQ(robot.name, name);
+    EXPECT_GE(robot.legs.size(), 2u);
+    EXPECT_FALSE(robot.gaits.empty());
+    EXPECT_FALSE(robot.search_space.empty());
+  }
+}
+
+TEST(MortiFromUrdf, LegsJointsAndGroupsAreTheYamls) {
+  const RobotDescription robot = load_robot("morti");
+  ASSERT_EQ(robot.legs.size(), 4u);
+  EXPECT_EQ(robot.legs[0].name, "FL");
+  EXPECT_EQ(robot.legs[3].name, "HR");
+  EXPECT_EQ(robot.legs[2].knee_joint, "HL_knee");
+  EXPECT_EQ(robot.groups, (std::vector<std::string>{"front", "hind"}));
+  EXPECT_EQ(robot.root_link, "trunk");
+  EXPECT_EQ(robot.links.size(), 13u);
+  EXPECT_EQ(robot.joints.size(), 12u);
+  EXPECT_EQ(robot.gaits.front().name, "trot");
+  EXPECT_EQ(robot.gaits.front().phase_offsets, (std::vector<double>{0.0, 0.5, 0.5, 0.0}));
+}
+
+// Every value of the simulation's model, read from the URDF and robot.yaml, equals the hand-written file's.
+TEST(MortiFromUrdf, ModelEqualsTheHandWrittenModel) {
+  const sim::MortiModel from_urdf = sim::planar_leg_model(load_robot("morti"));
+  const sim::MortiModel by_hand = sim::load_morti_model(sim::default_model_path());
+  auto expect_near = [](double a, double b, const char* what) { EXPECT_NEAR(a, b, 1e-12 * std::max(1.0, std::abs(b))) << what; };
+  expect_near(from_urdf.trunk_mass_kg, by_hand.trunk_mass_kg, "trunk mass");
+  expect_near(from_urdf.trunk_length_m, by_hand.trunk_length_m, "trunk length");
+  expect_near(from_urdf.trunk_height_m, by_hand.trunk_height_m, "trunk height");
+  expect_near(from_urdf.trunk_depth_m, by_hand.trunk_depth_m, "trunk depth");
+  expect_near(from_urdf.hip_spacing_m, by_hand.hip_spacing_m, "hip spacing");
+  for (auto [a, b, what] : {std::tuple{from_urdf.femur, by_hand.femur, "femur"}, std::tuple{from_urdf.shank, by_hand.shank, "shank"},
+                            std::tuple{from_urdf.foot, by_hand.foot, "foot"}}) {
+    expect_near(a.length_m, b.length_m, what);
+    expect_near(a.mass_kg, b.mass_kg, what);
+  }
+  expect_near(from_urdf.toe_radius_m, by_hand.toe_radius_m, "toe radius");
+  expect_near(from_urdf.femur_mount_angle_rad, by_hand.femur_mount_angle_rad, "mount angle");
+  expect_near(from_urdf.knee_stand_flexion_rad, by_hand.knee_stand_flexion_rad, "knee standing flexion");
+  expect_near(from_urdf.knee_min_flexion_rad, by_hand.knee_min_flexion_rad, "knee min");
+  expect_near(from_urdf.knee_max_flexion_rad, by_hand.knee_max_flexion_rad, "knee max");
+  expect_near(from_urdf.ankle_range_rad, by_hand.ankle_range_rad, "ankle range");
+  expect_near(from_urdf.knee_joint_friction_nm, by_hand.knee_joint_friction_nm, "knee friction");
+  expect_near(from_urdf.knee_spring.stiffness_nm_per_rad, by_hand.knee_spring.stiffness_nm_per_rad, "knee spring");
+  expect_near(from_urdf.knee_spring.damping_nm_s_per_rad, by_hand.knee_spring.damping_nm_s_per_rad, "knee damping");
+  expect_near(from_urdf.biarticular_spring.stiffness_nm_per_rad, by_hand.biarticular_spring.stiffness_nm_per_rad, "biarticular");
+  expect_near(from_urdf.biarticular_spring.damping_nm_s_per_rad, by_hand.biarticular_spring.damping_nm_s_per_rad, "biarticular d");
+  for (auto [a, b] : {std::pair{from_urdf.hip_motor, by_hand.hip_motor}, std::pair{from_urdf.knee_motor, by_hand.knee_motor}}) {
+    expect_near(a.stall_torque_nm, b.stall_torque_nm, "stall");
+    expect_near(a.no_load_speed_rad_s, b.no_load_speed_rad_s, "no load");
+    expect_near(a.kp_nm_per_rad, b.kp_nm_per_rad, "kp");
+    expect_near(a.kd_nm_s_per_rad, b.kd_nm_s_per_rad, "kd");
+    expect_near(a.coulomb_friction_nm, b.coulomb_friction_nm, "coulomb");
+    expect_near(a.viscous_friction_nm_s_per_rad, b.viscous_friction_nm_s_per_rad, "viscous");
+    expect_near(a.reflected_inertia_kg_m2, b.reflected_inertia_kg_m2, "reflected");
+  }
+  expect_near(from_urdf.knee_motor_bandwidth_per_s, by_hand.knee_motor_bandwidth_per_s, "bandwidth");
+  expect_near(from_urdf.contact.friction, by_hand.contact.friction, "friction");
+  expect_near(from_urdf.contact.stiffness_n_per_m, by_hand.contact.stiffness_n_per_m, "contact k");
+  expect_near(from_urdf.contact.damping_n_s_per_m, by_hand.contact.damping_n_s_per_m, "contact d");
+  expect_near(from_urdf.foot_sensor.sensitivity, by_hand.foot_sensor.sensitivity, "sensitivity");
+  expect_near(from_urdf.foot_sensor.time_constant_s, by_hand.foot_sensor.time_constant_s, "lag");
+  expect_near(from_urdf.physics_rate_hz, by_hand.physics_rate_hz, "rate");
+  expect_near(from_urdf.gravity_m_s2, by_hand.gravity_m_s2, "gravity");
+}
+
+// The URDF's inertias are those of the bodies the ODE plant builds (slender 0.02 m bars, the trunk's box)
+// about their pitch axis (URDF y) and the other two.
+TEST(MortiFromUrdf, InertiasAreThePlantsBodies) {
+  const RobotDescription robot = load_robot("morti");
+  const sim::MortiModel m = sim::load_morti_model(sim::default_model_path());
+  auto bar = [](double mass, double length) {
+    return std::array<double, 3>{mass / 12 * (length * length + 0.0004), mass / 12 * (length * length + 0.0004), mass / 12 * 0.0008};
+  };
+  const double tm = m.trunk_mass_kg, L = m.trunk_length_m, H = m.trunk_height_m, D = m.trunk_depth_m;
+  const std::map<std::string, std::array<double, 3>> expected_by_kind{
+      {"femur", bar(m.femur.mass_kg, m.femur.length_m)}, {"shank", bar(m.shank.mass_kg, m.shank.length_m)},
+      {"foot", bar(m.foot.mass_kg, m.foot.length_m)},
+      {"trunk", {tm / 12 * (D * D + H * H), tm / 12 * (L * L + H * H), tm / 12 * (L * L + D * D)}}};
+  int checked = 0;
+  for (const LinkDescription& link : robot.links) {
+    const std::string kind = link.name == "trunk" ? "trunk" : link.name.substr(link.name.find('_') + 1);
+    const auto& e = expected_by_kind.at(kind);
+    EXPECT_NEAR(link.inertia_kg_m2[0], e[0], 1e-12) << link.name << " ixx";
+    EXPECT_NEAR(link.inertia_kg_m2[3], e[1], 1e-12) << link.name << " iyy (pitch)";
+    EXPECT_NEAR(link.inertia_kg_m2[5], e[2], 1e-12) << link.name << " izz";
+    ++checked;
+  }
+  EXPECT_EQ(checked, 13);
+}
+
+TEST(MortiFromUrdf, TotalMassAndStandingHeightAreThePlants) {
+  const RobotDescription robot = load_robot("morti");
+  const sim::MortiModel m = sim::load_morti_model(sim::default_model_path());
+  EXPECT_NEAR(robot.total_mass_kg(), m.total_mass_kg(), 1e-12);
+  EXPECT_NEAR(robot.total_mass_kg(), 3.88, 1e-12);
+  sim::OdePlant plant(m, sim::TerrainSpec{}, 0);
+  EXPECT_NEAR(sim::standing_trunk_height_m(robot), plant.state().trunk.height_m, 1e-9);
+  EXPECT_GT(sim::standing_trunk_height_m(robot), 0.25);  // notes: 0.25-0.32 m
+  EXPECT_LT(sim::standing_trunk_height_m(robot), 0.32);
+}
+
+// The shipped presets and 20 random gaits of the robot's search space cost the same, and fall the same,
+// on Morti built from its URDF as on the hand-written model (tolerance 1e-9 of the cost: the two models'
+// values agree to 1e-12, so any larger difference is a different model).
+TEST(MortiFromUrdf, RolloutCostsAndFallsMatchTheHandWrittenModel) {
+  const RobotDescription robot = load_robot("morti");
+  sim::SimRolloutJob by_hand;
+  by_hand.settings = load_rollout_settings(sim::default_rollout_settings_path());
+  by_hand.settings.entrain_s = 3.0;  // short rollouts: the models are equal or they are not within seconds
+  by_hand.settings.eval_s = 3.0;
+  by_hand.model = sim::load_morti_model(sim::default_model_path());
+  sim::SimRolloutJob from_urdf = by_hand;
+  from_urdf.model = sim::planar_leg_model(robot);
+
+  std::vector<CpgParameters> gaits;
+  for (const auto& [name, values] : robot.presets) {
+    CpgParameters p;
+    for (const auto& [key, value] : values) set_parameter(p, key, value);
+    gaits.push_back(p);
+  }
+  std::mt19937_64 rng(7);
+  for (int i = 0; i < 20; ++i) {
+    CpgParameters p = gaits.front();
+    for (const SearchParameter& s : robot.search_space) {
+      set_parameter(p, s.name, std::uniform_real_distribution<double>(s.low, s.high)(rng));
+    }
+    gaits.push_back(p);
+  }
+  int falls = 0;
+  for (std::size_t i = 0; i < gaits.size(); ++i) {
+    by_hand.params = from_urdf.params = gaits[i];
+    const RolloutResult a = sim::run_sim_rollout(by_hand);
+    const RolloutResult b = sim::run_sim_rollout(from_urdf);
+    EXPECT_NEAR(a.cost, b.cost, 1e-9 * std::max(1.0, a.cost)) << "gait " << i;
+    EXPECT_EQ(a.fell, b.fell) << "gait " << i;
+    falls += a.fell;
+  }
+  EXPECT_EQ(gaits.size(), 23u);
+  RecordProperty("falls", falls);
+}
+
+// ---- bad input: each mutation of Morti's texts is refused, naming the element and where it is ----
+
+struct Texts {
+  std::string yaml, urdf;
+};
+
+Texts morti_texts() {
+  return {read_text_file(robot_dir() + "/robot.yaml", "robot.yaml"), read_text_file(robot_dir() + "/robot.urdf", "robot.urdf")};
+}
+
+std::string replace_once(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "the test's anchor '" << from << "' is gone from Morti's files";
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+std::string error_of(const Texts& t) {
+  try {
+    parse_robot(t.yaml, "robot.yaml", t.urdf, "robot.urdf");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+TEST(RobotDescriptionErrors, EachBadDescriptionNamesTheElementAndItsLine) {
+  const Texts good = morti_texts();
+  ASSERT_EQ(error_of(good), "(accepted)");
+  struct Case {
+    const char* what;
+    Texts texts;
+    const char* expected;  // a regular expression the message must match
+  };
+  const std::vector<Case> cases{
+      {"URDF that is not XML", {good.yaml, replace_once(good.urdf, "</robot>", "")}, R"(robot\.urdf:\d+: not well-formed XML)"},
+      {"URDF that is not a tree (two roots)",
+       {good.yaml, replace_once(good.urdf, "</robot>", R"(<link name="loose"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link></robot>)")},
+       R"(robot\.urdf: not a valid URDF: .*(root|parent))"},
+      {"a link without inertia",
+       {good.yaml, replace_once(good.urdf, R"(<link name="FL_shank">
+    <inertial><origin xyz="0 0 -0.06" rpy="0 0 0"/><mass value="0.08"/><inertia ixx="9.866666666666666e-05" ixy="0" ixz="0" iyy="9.866666666666666e-05" iyz="0" izz="5.333333333333334e-06"/></inertial>)",
+                                R"(<link name="FL_shank">)")},
+       R"(robot\.urdf:\d+: link 'FL_shank' has no <inertial>)"},
+      {"a non-positive mass", {good.yaml, replace_once(good.urdf, R"(<mass value="0.04"/>)", R"(<mass value="-0.04"/>)")},
+       R"(robot\.urdf:\d+: link 'FL_foot': mass must be > 0 kg)"},
+      {"a joint the YAML names that the URDF lacks", {replace_once(good.yaml, "knee: HL_knee", "knee: HL_knee_joint"), good.urdf},
+       R"(robot\.yaml:\d+: field 'legs\[2\]\.knee': joint 'HL_knee_joint' is not in robot\.urdf)"},
+      {"a leg without a foot collision shape",
+       {good.yaml, replace_once(good.urdf, R"(<collision><origin xyz="0 0 -0.07" rpy="0 0 0"/><geometry><sphere radius="0.012"/></geometry></collision>)", "")},
+       R"(robot\.yaml:\d+: field 'legs\[0\]\.foot': link 'FL_foot' \(robot\.urdf:\d+\) has no <collision> sphere)"},
+      {"a search-space name no gait uses", {replace_once(good.yaml, "  overswing: {low: 0.0, high: 0.5}", "  overswing: {low: 0.0, high: 0.5}\n  tail_wag: {low: 0.0, high: 1.0}"), good.urdf},
+       R"(robot\.yaml:\d+: field 'search_space\.tail_wag': no gait uses it)"},
+      {"a gait with the wrong number of offsets", {replace_once(good.yaml, "pace: [0.0, 0.5, 0.0, 0.5]", "pace: [0.0, 0.5, 0.0]"), good.urdf},
+       R"(robot\.yaml:\d+: field 'gaits\.pace': must list 4 phase offsets)"},
+      {"an unknown drive", {replace_once(good.yaml, "kind: passive", "kind: hydraulic"), good.urdf},
+       R"(robot\.yaml:\d+: field 'drives\.ankle\.kind': unknown drive 'hydraulic')"},
+      {"an unknown motor", {replace_once(good.yaml, "motor: knee_motor,", "motor: knee_motr,"), good.urdf},
+       R"(robot\.yaml:\d+: field 'drives\.knee\.motor': unknown motor 'knee_motr')"},
+      {"a knee that does not hang from the femur", {replace_once(good.yaml, "hip: FR_hip, knee: FR_knee", "hip: FR_hip, knee: FL_knee"), good.urdf},
+       R"(robot\.yaml:\d+: field 'legs\[1\]\.knee': joint 'FL_knee' hangs from link 'FL_femur', not from 'FR_femur')"},
+      {"a leg named twice", {replace_once(good.yaml, "{name: FR,", "{name: FL,"), good.urdf},
+       R"(robot\.yaml:\d+: field 'legs\[1\]\.name': leg 'FL' is named twice)"},
+      {"an inverted joint limit", {good.yaml, replace_once(good.urdf, R"(<limit lower="-0.8" upper="1.4")", R"(<limit lower="1.4" upper="-0.8")")},
+       R"(robot\.urdf:\d+: joint 'FL_knee': limit lower 1\.4 must be below upper -0\.8)"},
+      {"bidi override echoed escaped", {replace_once(good.yaml, "knee: HL_knee", "knee: \"HL_\u202eknee\""), good.urdf},
+       R"(joint 'HL_\\u202eknee' is not in)"},
+  };
+  for (const Case& c : cases) {
+    const std::string message = error_of(c.texts);
+    EXPECT_TRUE(std::regex_search(message, std::regex(c.expected))) << c.what << "\n  got: " << message << "\n  want: " << c.expected;
+  }
+}
+
+TEST(RobotDescriptionErrors, SpecialFilesAndUnknownNamesAreRefusedBeforeReading) {
+  EXPECT_THROW(load_robot("/dev/zero"), InputError);
+  try {
+    load_robot("no-such-robot");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("shipped: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("morti"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace cpgmatch
+
+namespace cpgmatch {
+namespace {
+
+// A six-legged robot made from Morti's files for this test: two more legs (ML, MR) at the trunk's centre,
+// alike to the others, and the tripod gait. The plant builds it, the controller drives six legs, and the
+// tripod's phase offsets hold in simulation (the legs' phases stay locked through 10 s of walking, contacts
+// and feedback included).
+Texts six_legged_morti() {
+  Texts t = morti_texts();
+  const auto fl_begin = t.urdf.find(R"(<link name="FL_femur">)");
+  const auto fl_end = t.urdf.find(R"(<link name="FR_femur">)");
+  std::string fl = t.urdf.substr(fl_begin, fl_end - fl_begin);
+  std::string middle;
+  for (const auto& [name, y] : {std::pair{"ML", "0.075"}, std::pair{"MR", "-0.075"}}) {
+    std::string leg = std::regex_replace(fl, std::regex("FL_"), std::string(name) + "_");
+    leg = std::regex_replace(leg, std::regex(R"(xyz="0\.2 0\.075 0")"), std::string("xyz=\"0.0 ") + y + " 0\"");
+    middle += leg;
+  }
+  t.urdf.insert(fl_end, middle);
+  t.yaml = replace_once(t.yaml, "  - {name: HL,", "  - {name: ML, group: middle, hip: ML_hip, knee: ML_knee, ankle: ML_ankle, foot: ML_foot}\n"
+                                              "  - {name: MR, group: middle, hip: MR_hip, knee: MR_knee, ankle: MR_ankle, foot: MR_foot}\n"
+                                              "  - {name: HL,");
+  // FL FR ML MR HL HR: tripods FL MR HL and FR ML HR.
+  t.yaml = std::regex_replace(t.yaml, std::regex(R"(gaits:\n(  [a-z]+: \[[^\]]*\].*\n)+)"),
+                              "gaits:\n  tripod: [0.0, 0.5, 0.5, 0.0, 0.0, 0.5]\n");
+  t.yaml = replace_once(t.yaml, "default_gait: trot", "default_gait: tripod");
+  return t;
+}
+
+TEST(SixLegs, TheTripodGaitLocksInSimulation) {
+  const Texts texts = six_legged_morti();
+  const RobotDescription robot = parse_robot(texts.yaml, "six.yaml", texts.urdf, "six.urdf");
+  ASSERT_EQ(robot.legs.size(), 6u);
+  EXPECT_EQ(robot.groups, (std::vector<std::string>{"front", "middle", "hind"}));
+  const sim::MortiModel model = sim::planar_leg_model(robot);
+  EXPECT_EQ(model.leg_count(), 6u);
+  EXPECT_NEAR(model.total_mass_kg(), 3.0 + 6 * 0.22, 1e-12);
+
+  sim::SimRolloutJob job;
+  job.settings = load_rollout_settings(sim::default_rollout_settings_path());
+  job.settings.entrain_s = 5.0;
+  job.settings.eval_s = 5.0;
+  apply_robot_legs(job.settings.controller, robot);
+  ASSERT_EQ(job.settings.controller.gait, "tripod");
+  job.model = model;
+  for (const auto& [key, value] : robot.presets.at("matched-trot")) set_parameter(job.params, key, value);
+  double worst_lock = 0.0;
+  std::size_t legs_seen = 0;
+  const RolloutResult r = sim::run_sim_rollout(job, [&](const TraceSample& s) {
+    legs_seen = s.state->legs.size();
+    if (s.time_s < 2.0) return;
+    // Within each tripod the phases agree; between the two they are half a cycle apart.
+    const auto& ph = s.output->phases;
+    auto diff = [](double a, double b) { return std::abs(std::remainder(a - b, 1.0)); };
+    for (int a : {0, 3, 4}) worst_lock = std::max(worst_lock, diff(ph[a], ph[0]));
+    for (int b : {1, 2, 5}) worst_lock = std::max(worst_lock, std::abs(diff(ph[b], ph[0]) - 0.5));
+  });
+  EXPECT_EQ(legs_seen, 6u);
+  EXPECT_FALSE(r.fell) << r.outcome_message;
+  EXPECT_GT(r.breakdown.distance_m, 0.5);  // it walks
+  // The feedback holds a leg back while its ground is missing; the coupling pulls it back into the tripod.
+  EXPECT_LT(worst_lock, 0.15) << "largest deviation from the tripod's phase offsets, cycles";
+  EXPECT_EQ(r.energy.hip.size(), 6u);
+}
+
+}  // namespace
+}  // namespace cpgmatch

@@ -1,0 +1,22 @@
+// Morti's leg layout for tests written against it: FL FR HL HR, front and hind girdles. The product has no
+// such constants (a robot's legs are data, legs.hpp); tests of Morti's own behaviour name its legs here.
+#pragma once
+
+#include <array>
+#include <string_view>
+
+#include "cpgmatch/legs.hpp"
+
+namespace cpgmatch::test {
+
+inline constexpr std::size_t kNumLegs = 4;
+enum Leg : int { kFrontLeft = 0, kFrontRight = 1, kHindLeft = 2, kHindRight = 3 };
+inline constexpr std::array<std::string_view, kNumLegs> kLegNames{"FL", "FR", "HL", "HR"};
+inline constexpr bool is_front(int leg) { return leg == kFrontLeft || leg == kFrontRight; }
+inline constexpr int girdle_partner(int leg) { return is_front(leg) ? 1 - leg : 5 - leg; }
+inline const LegLayout& morti_legs() {
+  static const LegLayout layout = LegLayout::quadruped();
+  return layout;
+}
+
+}  // namespace cpgmatch::test
