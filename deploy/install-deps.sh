@@ -29,7 +29,7 @@ PACKAGES=(
   # .deb's dependencies, network namespaces for the cluster test
   groff-base dpkg-dev iproute2
   # robot descriptions (configs/robots/*/robot.urdf) are parsed with urdfdom
-  liburdfdom-dev
+  liburdfdom-dev libtinyxml2-dev
 )
 
 missing=()
