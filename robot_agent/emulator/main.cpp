@@ -89,14 +89,14 @@ class Emulator {
   }
 
   bool any_enabled() const {
-    for (int j = 0; j < kNumJoints; ++j) {
+    for (int j = 0; j < device_.joint_count(); ++j) {
       if (device_.enabled(j)) return true;
     }
     return false;
   }
 
   bool all_enabled() const {
-    for (int j = 0; j < kNumJoints; ++j) {
+    for (int j = 0; j < device_.joint_count(); ++j) {
       if (!device_.enabled(j)) return false;
     }
     return true;
@@ -104,7 +104,7 @@ class Emulator {
 
   // Every motor off, or told kp = 0 and no feed-forward torque (the agent's safe state: it only damps).
   bool every_motor_safe() const {
-    for (int j = 0; j < kNumJoints; ++j) {
+    for (int j = 0; j < device_.joint_count(); ++j) {
       const MotorCommand& c = device_.last_command(j);
       if (device_.enabled(j) && (c.kp_nm_per_rad != 0.0 || c.torque_nm != 0.0)) return false;
     }
@@ -156,7 +156,9 @@ class Emulator {
   int run_lockstep() {
     while (!g_stop) {
       const auto got = take(std::chrono::milliseconds(50));
-      if (got.event == RobotDevice::Event::kEnable) {
+      if (got.event == RobotDevice::Event::kQuery && got.reply_owed) {
+        device_.reply(got.joint);  // a request after this period's step (ODrive's Get_Iq): answered at once
+      } else if (got.event == RobotDevice::Event::kEnable) {
         device_.reply(got.joint);
         if (all_enabled()) device_.send_sensors();  // once the robot is ready, not once per motor
       } else if (got.event == RobotDevice::Event::kCommand && device_.all_commanded()) {
@@ -186,9 +188,7 @@ class Emulator {
         const std::int64_t left = to_ns(timer.deadline()) - monotonic_ns();
         if (left <= 0) break;
         const auto got = take(std::chrono::nanoseconds(left));
-        if (got.event == RobotDevice::Event::kCommand || got.event == RobotDevice::Event::kEnable) {
-          if (got.event == RobotDevice::Event::kEnable || device_.enabled(got.joint)) device_.reply(got.joint);
-        }
+        if (got.reply_owed) device_.reply(got.joint);  // each protocol's twin says what it answers
         device_.flush();
       }
       enforce_driver_watchdog(options_.driver_timeout_ms);
