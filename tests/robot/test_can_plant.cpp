@@ -77,7 +77,7 @@ class ScriptedRobot {
         if (all_safe && all_safe_ns_ == 0) all_safe_ns_ = monotonic_ns();
         continue;
       }
-      if ((got.event == RobotDevice::Event::kCommand || got.event == RobotDevice::Event::kEnable) && got.joint != mute_joint_) {
+      if (got.reply_owed && got.joint != mute_joint_) {
         device_.reply(got.joint);
         last_reply_ns_ = monotonic_ns();
       }

@@ -91,7 +91,7 @@ class AnsweringRobot {
       s.trunk.height_m = 0.28;
       for (auto& leg : s.legs) leg.foot_normal_force_n = 10.0;
       device_.update(s, 0.0);
-      if (got.event == RobotDevice::Event::kCommand || got.event == RobotDevice::Event::kEnable) device_.reply(got.joint);
+      if (got.reply_owed) device_.reply(got.joint);
       const auto now = std::chrono::steady_clock::now().time_since_epoch().count();
       if (now >= next_sensors) {
         device_.send_sensors();

@@ -37,7 +37,7 @@ CanPlant::CanPlant(const RobotConfig& config, can::CanBus& bus, CanPlantOptions 
     motors_.push_back(make_joint_protocol(joint));
     motors_.back()->feedback_filters(filters);
     max_frames += motors_.back()->max_frames();
-    joint_timeout_ns_.push_back(std::llround(joint.feedback_timeout_s * 1e9));
+    joint_timeout_ns_.push_back(std::llround(config_.feedback_timeout_s(joint) * 1e9));
     // The stall watch waits for the slowest joint's timeout.
     timeout_ns_ = std::max(timeout_ns_, joint_timeout_ns_.back());
   }
@@ -99,7 +99,7 @@ void CanPlant::send_safe_state() {
   safe_frames_.clear();
   for (int j = 0; j < joint_count_; ++j) {
     MotorCommand safe;  // kp = 0, feed-forward 0: the motor only damps
-    safe.kd_nm_s_per_rad = config_.joints[j].to_motor_kd(config_.joints[j].safe_damping_nm_s_per_rad);
+    safe.kd_nm_s_per_rad = config_.joints[j].to_motor_kd(config_.safe_damping(config_.joints[j]));
     motors_[j]->command(safe, safe_frames_);
   }
   try {

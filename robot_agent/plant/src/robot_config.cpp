@@ -77,7 +77,7 @@ MitRanges load_mit_ranges(const YamlReader& m, MitRanges g) {
 JointConfig load_joint(const YamlReader& j, const std::string& name, const RobotConfig& robot) {
   j.reject_unknown_keys({"leg", "role", "protocol", "node_id", "gear_ratio", "direction", "zero_offset_rad",
                          "position_min_rad", "position_max_rad", "velocity_max_rad_s", "torque_max_nm", "kp_nm_per_rad",
-                         "kd_nm_s_per_rad", "motor_ranges", "torque_constant_nm_per_a", "request_iq",
+                         "kd_nm_s_per_rad", "motor_ranges", "torque_constant_nm_per_a", "request_iq", "iq_every",
                          "servo_kp_nm_per_rad", "servo_kd_nm_s_per_rad", "safety"});
   JointConfig c;
   c.name = name;
@@ -114,18 +114,18 @@ JointConfig load_joint(const YamlReader& j, const std::string& name, const Robot
   if (!(c.kp_nm_per_rad >= 0.0)) j.fail("kp_nm_per_rad", "must be >= 0");
   if (!(c.kd_nm_s_per_rad >= 0.0)) j.fail("kd_nm_s_per_rad", "must be >= 0");
 
-  c.feedback_timeout_s = robot.safety.feedback_timeout_s;
-  c.safe_damping_nm_s_per_rad = robot.safety.safe_damping_nm_s_per_rad;
   if (j.has("safety")) {
     const YamlReader s = j.child("safety");
     s.reject_unknown_keys({"feedback_timeout_s", "safe_damping_nm_s_per_rad"});
     // Per joint: a slower feedback (ODrive's cyclic estimates) may need a longer timeout, never beyond the
     // 20-ms safety target on a robot.
-    c.feedback_timeout_s = s.get_double_in("feedback_timeout_s", c.feedback_timeout_s, 0.002, robot.emulator_only ? 1.0 : 0.015);
-    c.safe_damping_nm_s_per_rad = s.get_double_in("safe_damping_nm_s_per_rad", c.safe_damping_nm_s_per_rad, 0.0, 10.0);
+    if (s.has("feedback_timeout_s")) {
+      c.feedback_timeout_s = s.get_double_in("feedback_timeout_s", 0.0, 0.002, robot.emulator_only ? 1.0 : 0.015);
+    }
+    if (s.has("safe_damping_nm_s_per_rad")) c.safe_damping_nm_s_per_rad = s.get_double_in("safe_damping_nm_s_per_rad", 0.0, 0.0, 10.0);
   }
 
-  const bool has_mit = j.has("motor_ranges"), has_odrive = j.has("torque_constant_nm_per_a") || j.has("request_iq"),
+  const bool has_mit = j.has("motor_ranges"), has_odrive = j.has("torque_constant_nm_per_a") || j.has("request_iq") || j.has("iq_every"),
              has_moteus = j.has("servo_kp_nm_per_rad") || j.has("servo_kd_nm_s_per_rad");
   if (has_mit && c.protocol != "mit") j.fail("motor_ranges", fmt::format("is for mit joints, this one is {}", c.protocol));
   if (has_odrive && c.protocol != "odrive") j.fail(j.has("request_iq") ? "request_iq" : "torque_constant_nm_per_a", fmt::format("is for odrive joints, this one is {}", c.protocol));
@@ -137,6 +137,7 @@ JointConfig load_joint(const YamlReader& j, const std::string& name, const Robot
   } else if (c.protocol == "odrive") {
     c.odrive.request_iq = j.get_bool("request_iq", true);
     c.odrive.torque_constant_nm_per_a = j.get_double("torque_constant_nm_per_a", 0.0);
+    c.odrive.iq_every = static_cast<std::uint32_t>(j.get_int_in("iq_every", 1, 1, 1000));
     if (c.odrive.request_iq && !(c.odrive.torque_constant_nm_per_a > 0.0)) {
       j.fail("torque_constant_nm_per_a", "is missing or not > 0 (the ODrive's motor torque constant, 8.27 / KV, turns its Iq into torque)");
     }
@@ -160,7 +161,7 @@ JointConfig load_joint(const YamlReader& j, const std::string& name, const Robot
       j.fail("kp_nm_per_rad", fmt::format("is {} N m/rad at the motor, above the servo's own kp {} (kp_scale would exceed 1)",
                                           c.to_motor_kp(c.kp_nm_per_rad), c.moteus.servo_kp_nm_per_rad));
     }
-    for (const double kd : {c.kd_nm_s_per_rad, c.safe_damping_nm_s_per_rad}) {
+    for (const double kd : {c.kd_nm_s_per_rad, robot.safe_damping(c)}) {
       if (c.to_motor_kd(kd) > c.moteus.servo_kd_nm_s_per_rad * (1 + 1e-9)) {
         j.fail(kd == c.kd_nm_s_per_rad ? "kd_nm_s_per_rad" : "safety", fmt::format("damping {} N m s/rad at the motor is above the servo's own kd {} (kd_scale would exceed 1)",
                                             c.to_motor_kd(kd), c.moteus.servo_kd_nm_s_per_rad));

@@ -93,7 +93,7 @@ int RobotDevice::enforce_command_timeout(std::int64_t now_ns, std::int64_t timeo
     if (!enabled(j) || timed_out_[j] || now_ns - last_command_ns_[j] < timeout_ns) continue;
     MotorCommand safe;  // kp = 0, feed-forward 0: the motor only damps
     safe.position_rad = last_command_[j].position_rad;
-    safe.kd_nm_s_per_rad = joints_[j]->to_motor_kd(joints_[j]->safe_damping_nm_s_per_rad);
+    safe.kd_nm_s_per_rad = joints_[j]->to_motor_kd(config_.safe_damping(*joints_[j]));
     last_command_[j] = safe;
     if (joints_[j]->role == JointRole::kHip) commands_[joints_[j]->leg].hip_passive = true;  // no pure-damping mode
     timed_out_[j] = true;

@@ -131,7 +131,8 @@ void OdriveMotor::send_gains(double kp, double kd, FrameSink& out) {
 void OdriveMotor::command(const MotorCommand& c, FrameSink& out) {
   send_gains(c.kp_nm_per_rad, c.kd_nm_s_per_rad, out);
   out.push(odrive_set_input_pos(node_, c.position_rad, c.velocity_rad_s, c.torque_nm));
-  if (settings_.request_iq) {
+  const std::uint32_t n = commands_.fetch_add(1, std::memory_order_relaxed);
+  if (settings_.request_iq && (n + node_) % std::max<std::uint32_t>(settings_.iq_every, 1) == 0) {
     can::CanFrame rtr = frame_for(node_, kOdriveGetIq, 8);
     rtr.remote = true;
     out.push(rtr);

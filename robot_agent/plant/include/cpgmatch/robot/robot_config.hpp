@@ -39,9 +39,9 @@ struct JointConfig {
   MitRanges mit_ranges;              // mit: the firmware's ranges
   OdriveSettings odrive;             // odrive: torque constant, Iq request
   MoteusSettings moteus;             // moteus: the servo's configured gains, the host id
-  // Per-joint safety (defaults: the robot's safety section).
-  double feedback_timeout_s = 0.010;
-  double safe_damping_nm_s_per_rad = 0.5;
+  // Per-joint safety; unset: the robot's safety section (RobotConfig::feedback_timeout_s(j) etc.).
+  std::optional<double> feedback_timeout_s;
+  std::optional<double> safe_damping_nm_s_per_rad;
   double gear_ratio = 1.0;           // motor output-shaft radians per joint radian (> 0)
   int direction = 1;                 // +1, or -1 when the motor turns against the joint's + sense
   double zero_offset_rad = 0.0;      // joint angle at motor position 0
@@ -100,6 +100,9 @@ struct RobotConfig {
   const JointConfig& joint(int leg, JointRole role) const { return joints[joint_index(leg, role)]; }
   const JointConfig& hip(int leg) const { return joint(leg, JointRole::kHip); }
   const JointConfig& knee(int leg) const { return joint(leg, JointRole::kKnee); }
+  // A joint's safety values: its own, else the robot's.
+  double feedback_timeout_s(const JointConfig& j) const { return j.feedback_timeout_s.value_or(safety.feedback_timeout_s); }
+  double safe_damping(const JointConfig& j) const { return j.safe_damping_nm_s_per_rad.value_or(safety.safe_damping_nm_s_per_rad); }
   // Some joint's protocol needs CAN-FD frames (moteus).
   bool needs_fd() const;
   // Why this description cannot drive the Plant interface of this build (PerLeg of kNumLegs legs), or nullopt.

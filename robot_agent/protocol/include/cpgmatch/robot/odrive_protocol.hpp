@@ -64,9 +64,11 @@ constexpr std::uint32_t odrive_id(std::uint32_t node, std::uint32_t cmd) { retur
 struct OdriveSettings {
   // Converts Iq (A) to torque at the motor shaft: the ODrive's motor.config.torque_constant (8.27 / KV).
   double torque_constant_nm_per_a = 0.0;
-  // Ask for Iq with an RTR after every command (0.5.x answers only then); false when the device streams
-  // it itself (0.6.x iq_msg_rate_ms) or torque feedback is not wanted.
+  // Ask for Iq with an RTR (0.5.x answers only then); false when the device streams it itself (0.6.x
+  // iq_msg_rate_ms) or torque feedback is not wanted.
   bool request_iq = true;
+  // ... after every iq_every-th command only, staggered by node id, to spare the bus (1: every command).
+  std::uint32_t iq_every = 1;
 };
 
 // Little-endian field access shared by the agent side and the emulator's twin.
@@ -117,6 +119,7 @@ class OdriveMotor final : public MotorProtocol {
   std::atomic<float> pos_gain_sent_, vel_gain_sent_;
   bool closed_loop_seen_ = false;  // a heartbeat in closed loop since enable(); afterwards IDLE is a fault
   std::atomic<bool> enabled_{false};
+  std::atomic<std::uint32_t> commands_{0};
 };
 
 }  // namespace cpgmatch::robot
