@@ -37,6 +37,8 @@ struct HardwareRunner::Impl {
 
 HardwareRunner::HardwareRunner(const HardwareRunnerOptions& options) : impl_(std::make_unique<Impl>(options)) {
   impl_->config = load_robot_config(options.robot_path);
+  // A description this build's controller cannot drive (another number of legs) is refused before the bus.
+  if (auto why = impl_->config.plant_mismatch()) throw InputError(*why);
   if (impl_->config.emulator_only && options.can_uri.rfind("socketcan:", 0) == 0) {
     throw InputError(fmt::format("{}: emulator_only: true may not drive {} (its watchdog may be slower than the 20 ms "
                                  "safety target); use the robot's own description",
