@@ -52,6 +52,15 @@ struct Options {
 };
 
 // Dry friction added to every hip gearbox and knee bearing: a robot that is stiffer than its model.
+// The simulated body must have the legs the hardware description drives.
+RobotConfig checked_against(RobotConfig config, const sim::MortiModel& model) {
+  if (static_cast<std::size_t>(config.leg_count()) != model.leg_count()) {
+    throw InputError(fmt::format("{} describes {} legs; the simulated model has {}", config.source, config.leg_count(),
+                                 model.leg_count()));
+  }
+  return config;
+}
+
 sim::MortiModel with_extra_friction(sim::MortiModel model, double extra_nm) {
   model.hip_motor.coulomb_friction_nm += extra_nm;
   model.knee_joint_friction_nm += extra_nm;
@@ -64,7 +73,7 @@ class Emulator {
       : options_(o),
         model_(with_extra_friction(sim::load_morti_model(o.model_path), o.extra_friction_nm)),
         terrain_(sim::TerrainSpec::parse(o.terrain)),
-        config_(load_robot_config(o.robot_path)),
+        config_(checked_against(load_robot_config(o.robot_path), model_)),
         bus_(can::open_can_bus(o.can_uri, can::BusRole::kDevice)),
         device_(config_, *bus_, o.imperfections) {
     reset_world();
@@ -89,14 +98,14 @@ class Emulator {
   }
 
   bool any_enabled() const {
-    for (int j = 0; j < kNumJoints; ++j) {
+    for (int j = 0; j < device_.joint_count(); ++j) {
       if (device_.enabled(j)) return true;
     }
     return false;
   }
 
   bool all_enabled() const {
-    for (int j = 0; j < kNumJoints; ++j) {
+    for (int j = 0; j < device_.joint_count(); ++j) {
       if (!device_.enabled(j)) return false;
     }
     return true;
@@ -104,7 +113,7 @@ class Emulator {
 
   // Every motor off, or told kp = 0 and no feed-forward torque (the agent's safe state: it only damps).
   bool every_motor_safe() const {
-    for (int j = 0; j < kNumJoints; ++j) {
+    for (int j = 0; j < device_.joint_count(); ++j) {
       const MotorCommand& c = device_.last_command(j);
       if (device_.enabled(j) && (c.kp_nm_per_rad != 0.0 || c.torque_nm != 0.0)) return false;
     }
@@ -156,7 +165,9 @@ class Emulator {
   int run_lockstep() {
     while (!g_stop) {
       const auto got = take(std::chrono::milliseconds(50));
-      if (got.event == RobotDevice::Event::kEnable) {
+      if (got.event == RobotDevice::Event::kQuery && got.reply_owed) {
+        device_.reply(got.joint);  // a request after this period's step (ODrive's Get_Iq): answered at once
+      } else if (got.event == RobotDevice::Event::kEnable) {
         device_.reply(got.joint);
         if (all_enabled()) device_.send_sensors();  // once the robot is ready, not once per motor
       } else if (got.event == RobotDevice::Event::kCommand && device_.all_commanded()) {
@@ -186,9 +197,7 @@ class Emulator {
         const std::int64_t left = to_ns(timer.deadline()) - monotonic_ns();
         if (left <= 0) break;
         const auto got = take(std::chrono::nanoseconds(left));
-        if (got.event == RobotDevice::Event::kCommand || got.event == RobotDevice::Event::kEnable) {
-          if (got.event == RobotDevice::Event::kEnable || device_.enabled(got.joint)) device_.reply(got.joint);
-        }
+        if (got.reply_owed) device_.reply(got.joint);  // each protocol's twin says what it answers
         device_.flush();
       }
       enforce_driver_watchdog(options_.driver_timeout_ms);

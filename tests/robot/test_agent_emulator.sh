@@ -14,11 +14,11 @@ set +e
 out=$("$AGENT" --can udp:127.0.0.1:99999 --run-once 2>&1); rc=$?
 set -e
 [[ $rc == 2 && $out == *"port '99999' must be a number in 1..65535"* ]] || fail "bad port: rc $rc: $out"
-sed 's/FL_knee:/FL_ankle:/' "$CONFIGS/robot/morti.yaml" >"$WORK/unknown-joint.yaml"
+sed 's/FL_knee: {leg: FL, /FL_knee: {/' "$CONFIGS/robot/morti.yaml" >"$WORK/no-leg.yaml"
 set +e
-out=$("$AGENT" --can udp:127.0.0.1:1 --robot "$WORK/unknown-joint.yaml" --run-once 2>&1); rc=$?
+out=$("$AGENT" --can udp:127.0.0.1:1 --robot "$WORK/no-leg.yaml" --run-once 2>&1); rc=$?
 set -e
-[[ $rc == 2 && $out == *"unknown-joint.yaml:"*"field 'joints.FL_ankle': unknown joint"* ]] || fail "unknown joint: rc $rc: $out"
+[[ $rc == 2 && $out == *"no-leg.yaml:"*"field 'joints.FL_knee.leg': is missing"* ]] || fail "joint without a leg: rc $rc: $out"
 set +e
 out=$("$AGENT" --can socketcan:can0 --run-once 2>&1); rc=$?
 set -e

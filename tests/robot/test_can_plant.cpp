@@ -22,6 +22,11 @@ using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 namespace cpgmatch::robot {
 namespace {
 
+// Morti's description lists each leg's hip then knee (configs/robot/morti.yaml): joint 2 leg + 0 / 1.
+constexpr int kNumJoints = 2 * kNumLegs;
+int joint_index(int leg, bool hip) { return leg * 2 + (hip ? 0 : 1); }
+
+
 using namespace std::chrono_literals;
 
 // A robot whose joints sit exactly at their targets, feet loaded with 10 N, trunk level at 0.25 m. It
@@ -76,7 +81,7 @@ class ScriptedRobot {
         if (all_safe && all_safe_ns_ == 0) all_safe_ns_ = monotonic_ns();
         continue;
       }
-      if ((got.event == RobotDevice::Event::kCommand || got.event == RobotDevice::Event::kEnable) && got.joint != mute_joint_) {
+      if (got.reply_owed && got.joint != mute_joint_) {
         device_.reply(got.joint);
         last_reply_ns_ = monotonic_ns();
       }
@@ -266,7 +271,7 @@ TEST(CanPlant, AMotorThatNeverAnswersStopsThePreparation) {
   CanPlant plant(config, *bus);
   const auto why = plant.prepare(10.0);
   ASSERT_TRUE(why.has_value());
-  EXPECT_EQ(*why, "motor HR_knee (node 8) does not answer");
+  EXPECT_EQ(*why, "motor HR_knee (mit node 8) does not answer");
 }
 
 TEST(CanPlant, EmergencyStopIsImmediate) {
@@ -385,7 +390,7 @@ TEST(CanPlant, ForeignAndMalformedFramesAreCountedNotUsed) {
   short_reply.length = 5;
   intruder->send(short_reply);
   intruder->send(mit_encode_reply(config.host_id, {42, 3.0, 0.0, 0.0}, config.ranges));
-  can::CanFrame bad_foot = encode_foot(config.foot_node_ids[0], {99.0, 0, false});
+  can::CanFrame bad_foot = encode_foot(config.foot_frame_ids[0], {99.0, 0, false});
   bad_foot.length = 2;
   intruder->send(bad_foot);
   for (int i = 0; i < 5; ++i) {

@@ -92,7 +92,7 @@ class AnsweringRobot {
       s.trunk.height_m = 0.28;
       for (auto& leg : s.legs) leg.foot_normal_force_n = 10.0;
       device_.update(s, 0.0);
-      if (got.event == RobotDevice::Event::kCommand || got.event == RobotDevice::Event::kEnable) device_.reply(got.joint);
+      if (got.reply_owed) device_.reply(got.joint);
       const auto now = std::chrono::steady_clock::now().time_since_epoch().count();
       if (now >= next_sensors) {
         device_.send_sensors();
@@ -150,6 +150,38 @@ TEST_F(RealtimeLoop, ARolloutOnTheCanPlantAllocatesNothingOnceActive) {
   ASSERT_FALSE(plant.fault_ended_rollout()) << plant.fault().value_or("");
   EXPECT_NEAR(result.sim_time_s, 1.0, 1e-9);
   EXPECT_EQ(watch.allocations_in_loop(), 0) << "heap allocations inside the real-time loop";
+}
+
+// The same over the other motor protocols (issue 31): ODrive's gains cache and Iq requests, moteus' CAN-FD
+// register frames in the udp wire format, each joint's protocol object from the factory.
+TEST(RealtimeLoopProtocols, ODriveAndMoteusRolloutsAllocateNothingOnceActive) {
+  const std::string dir = default_robot_config_path().substr(0, default_robot_config_path().rfind('/') + 1);
+  RobotConfig odrive = load_robot_config(dir + "odrive-quadruped.yaml");
+  RobotConfig moteus = load_robot_config(default_robot_config_path());
+  for (JointConfig& j : moteus.joints) {
+    j.protocol = "moteus";
+    j.moteus = {50.0, 1.0, moteus.host_id};
+  }
+  for (RobotConfig* config : {&odrive, &moteus}) {
+    config->safety.max_consecutive_overruns = 100;
+    config->safety.feedback_timeout_s = 0.5;
+    for (JointConfig& j : config->joints) j.feedback_timeout_s.reset();
+    const std::string uri = "udp:127.0.0.1:" + std::to_string(free_udp_port());
+    AnsweringRobot robot{*config, uri};
+    auto bus = can::open_can_bus(uri);
+    CanPlant plant{*config, *bus, CanPlantOptions{0.2, false}};
+    RolloutSettings settings;
+    settings.entrain_s = 0.3;
+    settings.eval_s = 0.3;
+    settings.controller.control_rate_hz = config->control_rate_hz;
+    ASSERT_EQ(plant.prepare(settings.entrain_s + settings.eval_s), std::nullopt) << config->joints[0].protocol;
+    AllocationWatch watch(plant);
+    run_rollout(watch, CpgParameters{}, settings, 1);
+    watch.stop();
+    plant.finish();
+    ASSERT_FALSE(plant.fault_ended_rollout()) << config->joints[0].protocol << ": " << plant.fault().value_or("");
+    EXPECT_EQ(watch.allocations_in_loop(), 0) << config->joints[0].protocol << ": heap allocations in the real-time loop";
+  }
 }
 
 // The agent records every hardware rollout's trace (HardwareRunner::run): into room reserved before the

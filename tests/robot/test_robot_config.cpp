@@ -46,11 +46,11 @@ std::string error_after(const std::string& pattern, const std::string& replaceme
 TEST(RobotConfig, ShippedMortiLoads) {
   const RobotConfig c = load_robot_config(default_robot_config_path());
   EXPECT_EQ(c.protocol, "mit");
-  EXPECT_EQ(c.hips[kFrontLeft].node_id, 1u);
-  EXPECT_EQ(c.knees[kHindRight].node_id, 8u);
-  EXPECT_EQ(c.hips[kFrontRight].direction, -1);
-  EXPECT_EQ(c.foot_node_ids[kHindLeft], 35u);
-  EXPECT_EQ(c.trunk_node_id, 64u);
+  EXPECT_EQ(c.hip(kFrontLeft).node_id, 1u);
+  EXPECT_EQ(c.knee(kHindRight).node_id, 8u);
+  EXPECT_EQ(c.hip(kFrontRight).direction, -1);
+  EXPECT_EQ(c.foot_frame_ids[kHindLeft], 35u);
+  EXPECT_EQ(c.trunk_pose_frame_id, 64u);
   EXPECT_DOUBLE_EQ(c.control_rate_hz, 500.0);
   EXPECT_DOUBLE_EQ(c.safety.feedback_timeout_s, 0.010);
   EXPECT_EQ(c.safety.envelope.size(), 8u);
@@ -94,18 +94,63 @@ TEST(RobotConfig, BadFilesNameFileLineAndField) {
     EXPECT_NE(message.find(part), std::string::npos) << "got: " << message;
     EXPECT_TRUE(std::regex_search(message, std::regex(R"(\.yaml:\d+)"))) << "no file:line in: " << message;
   };
-  expect(error_after("FL_knee:", "FL_ankle:"), "field 'joints.FL_ankle': unknown joint");
-  expect(error_after(R"(FR_hip:  \{node_id: 3, )", "FR_hip:  {"), "field 'joints.FR_hip.node_id': is missing");
-  expect(error_after(R"(FR_hip:  \{node_id: 3,)", "FR_hip:  {node_id: 1,"), "node id 1 is already used by FL_hip");
-  expect(error_after(R"(FL: \{node_id: 33\})", "FL: {node_id: 2}"), "node id 2 is already used by FL_knee");
+  expect(error_after(R"(FR_hip:  \{leg: FR, role: hip,  node_id: 3, )", "FR_hip:  {leg: FR, role: hip, "),
+         "field 'joints.FR_hip.node_id': is missing");
+  expect(error_after(R"(FR_hip:  \{leg: FR, role: hip,  node_id: 3,)", "FR_hip:  {leg: FR, role: hip, node_id: 1,"),
+         "CAN id 0x1 of FR_hip (mit node 1) is already used by FL_hip (mit node 1)");
+  expect(error_after(R"(FL: \{frame_id: 33\})", "FL: {frame_id: 2}"), "CAN id 0x2 of FL foot sensor is already used by FL_knee (mit node 2)");
   expect(error_after("torque_max_nm: 4.0", "torque_max_nm: 40.0"), "beyond the protocol's +-18 N m");
   expect(error_after("position_max_rad: 1.4", "position_max_rad: 14"), "outside the protocol's +-12.5 rad");
   expect(error_after("direction: 1,", "direction: 2,"), "must be 1 or -1");
-  expect(error_after("protocol: mit", "protocol: odrive"), "'odrive' is not supported");
+  expect(error_after("protocol: mit", "protocol: canopen"), "field 'protocol': 'canopen' is not a motor protocol (known: mit, odrive, moteus)");
   expect(error_after(R"(hip_amplitude: \[0.05, 0.65\])", "hip_amplitude: [0.05, 0.95]"), "outside the parameter's valid range");
   expect(error_after(R"(hip_amplitude: \[0.05, 0.65\])", "hip_amplitud: [0.05, 0.6]"), "unknown parameter");
   expect(error_after("feedback_timeout_s: 0.010", "feedback_timeout_s: 0.05"), "feedback_timeout_s");
-  expect(error_after("  HR_knee:.*\n", ""), "field 'joints.HR_knee': is missing");
+  // Issue 31: joints by name, each naming its leg and role; a description's own mistakes.
+  expect(error_after("  HR_knee:.*\n", ""), "leg HR has no knee joint");
+  expect(error_after("FL_hip:  \\{leg: FL, ", "FL_hip:  {"), "field 'joints.FL_hip.leg': is missing");
+  expect(error_after("leg: HL, role: hip", "leg: HX, role: hip"), "field 'joints.HL_hip.leg': 'HX' is not one of the robot's legs (FL, FR, HL, HR)");
+  expect(error_after("leg: HL, role: hip", "leg: HL, role: ankle"), "field 'joints.HL_hip.role': 'ankle' is not hip or knee");
+  expect(error_after("leg: HL, role: hip", "leg: FL, role: hip"), "field 'joints.HL_hip.role': leg FL already has a hip (FL_hip)");
+  expect(error_after("FL_knee: \\{leg: FL, role: knee, ", "FL_knee: {leg: FL, role: knee, protocol: odrv, "),
+         "field 'joints.FL_knee.protocol': 'odrv' is not a motor protocol");
+  expect(error_after("  FL: \\{frame_id: 33\\}\n", ""), "field 'feet.FL': is missing");
+  expect(error_after("legs: \\[FL, FR, HL, HR\\]", "legs: [FL, FR, HL, HR, FL]"), "leg 'FL' is listed twice");
+  expect(error_after("trunk_sensor: \\{pose_frame_id: 64, speed_frame_id: 65\\}", "trunk_sensor: {pose_frame_id: 64, speed_frame_id: 33}"),
+         "CAN id 0x21 of the trunk sensor's speed frame is already used by FL foot sensor");
+  // A joint on another protocol: an ODrive node owns 32 ids, so node 0 clashes with the MIT host id 0 and
+  // node 1 (ids 0x20..0x3F) with the FL foot sensor on 33.
+  expect(error_after("FL_knee: \\{leg: FL, role: knee, node_id: 2, ", "FL_knee: {leg: FL, role: knee, protocol: odrive, torque_constant_nm_per_a: 0.05, node_id: 1, "),
+         "CAN id 0x21 of FL foot sensor is already used by FL_knee (odrive node 1)");
+  expect(error_after("FL_knee: \\{leg: FL, role: knee, node_id: 2, ", "FL_knee: {leg: FL, role: knee, protocol: odrive, torque_constant_nm_per_a: 0.05, node_id: 0, "),
+         "CAN ids 0x0..0x1F of FL_knee (odrive node 0) are already used by FL_hip (mit node 1)");
+}
+
+// Each shipped hardware description loads; the ODrive and moteus ones carry their protocol's settings.
+TEST(RobotConfig, ShippedOdriveAndMoteusDescriptionsLoad) {
+  const std::string dir = std::filesystem::path(default_robot_config_path()).parent_path().string() + "/";
+  const RobotConfig odrive = load_robot_config(dir + "odrive-quadruped.yaml");
+  ASSERT_EQ(odrive.joint_count(), 8);
+  EXPECT_EQ(odrive.hip(kFrontLeft).protocol, "odrive");
+  EXPECT_EQ(odrive.knee(kHindRight).node_id, 7u);
+  EXPECT_NEAR(odrive.hip(kFrontLeft).odrive.torque_constant_nm_per_a, 0.0243, 1e-12);
+  EXPECT_FALSE(odrive.needs_fd());
+  EXPECT_FALSE(odrive.plant_mismatch().has_value());
+  EXPECT_EQ(odrive.foot_frame_ids[kHindRight], 0x303u);
+
+  const RobotConfig hexapod = load_robot_config(dir + "moteus-hexapod.yaml");
+  EXPECT_EQ(hexapod.leg_count(), 6);
+  EXPECT_EQ(hexapod.joint_count(), 12);
+  EXPECT_TRUE(hexapod.needs_fd());
+  EXPECT_EQ(hexapod.knee(5).name, "R3_knee");
+  EXPECT_DOUBLE_EQ(hexapod.knee(5).moteus.servo_kp_nm_per_rad, 50.0);
+  // The Plant carries six legs (up to kMaxLegs); nine would be more than it carries.
+  EXPECT_FALSE(hexapod.plant_mismatch().has_value());
+}
+
+// Renaming joints as a URDF would is fine now: names are the robot's, leg and role say what they are.
+TEST(RobotConfig, JointNamesAreTheRobots) {
+  EXPECT_EQ(error_after_all({{"FL_hip: ", "FL_hip_joint: "}, {"FL_knee:", "FL_knee_joint:"}}), "");
 }
 
 }  // namespace

@@ -16,6 +16,11 @@ using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
 namespace cpgmatch::robot {
 namespace {
 
+// Morti's description lists each leg's hip then knee (configs/robot/morti.yaml): joint 2 leg + 0 / 1.
+constexpr int kNumJoints = 2 * kNumLegs;
+int joint_index(int leg, bool hip) { return leg * 2 + (hip ? 0 : 1); }
+
+
 using namespace std::chrono_literals;
 
 struct Rig {
@@ -49,7 +54,7 @@ PlantState standing(double force) {
 
 TEST(RobotDevice, CommandsOfEnabledMotorsBecomeJointTargets) {
   Rig rig("device-commands");
-  const JointConfig& fr_hip = rig.config.hips[kFrontRight];  // direction -1
+  const JointConfig& fr_hip = rig.config.hip(kFrontRight);  // direction -1
   MitMotor motor(fr_hip.node_id, rig.config.host_id, rig.config.ranges);
   MotorCommand c;
   c.position_rad = fr_hip.to_motor_position(0.3);
@@ -79,21 +84,21 @@ TEST(RobotDevice, RepliesAndSensorsCarryTheBodyState) {
   rig.device.send_sensors();
   can::CanFrame f;
   ASSERT_TRUE(rig.host->receive(f, 100ms));
-  const JointConfig& hl_hip = rig.config.hips[kHindLeft];
+  const JointConfig& hl_hip = rig.config.hip(kHindLeft);
   const auto fb = mit_decode_reply(f, rig.config.host_id, rig.config.ranges);
   ASSERT_TRUE(fb.has_value());
   EXPECT_EQ(fb->node_id, hl_hip.node_id);
   EXPECT_NEAR(hl_hip.to_joint_position(fb->position_rad), 0.3, 1e-3);
   EXPECT_NEAR(hl_hip.to_joint_torque(fb->torque_nm), 1.0, 0.01);
   ASSERT_TRUE(rig.host->receive(f, 100ms));
-  EXPECT_NEAR(decode_foot(f, rig.config.foot_node_ids[kFrontLeft])->force_n, 12.5, 0.01);
+  EXPECT_NEAR(decode_foot(f, rig.config.foot_frame_ids[kFrontLeft])->force_n, 12.5, 0.01);
   for (int i = 0; i < 3; ++i) ASSERT_TRUE(rig.host->receive(f, 100ms));
   ASSERT_TRUE(rig.host->receive(f, 100ms));
-  const auto trunk = decode_trunk_pose(f, rig.config.trunk_node_id);
+  const auto trunk = decode_trunk_pose(f, rig.config.trunk_pose_frame_id);
   ASSERT_TRUE(trunk.has_value());
   EXPECT_NEAR(trunk->height_m, 0.27, 1e-4);
   ASSERT_TRUE(rig.host->receive(f, 100ms));
-  EXPECT_NEAR(*decode_trunk_speed(f, rig.config.trunk_node_id), 0.3, 1e-3);
+  EXPECT_NEAR(*decode_trunk_speed(f, rig.config.trunk_speed_frame_id), 0.3, 1e-3);
 }
 
 TEST(RobotDevice, VelocityIsTheChangeOverTheStep) {
@@ -118,7 +123,7 @@ TEST(RobotDevice, ImperfectionsDropAndDelayFrames) {
   rig.device.send_sensors();
   can::CanFrame f;
   ASSERT_TRUE(rig.host->receive(f, 100ms));
-  EXPECT_EQ(f.id, rig.config.foot_node_ids[kFrontLeft]) << "every reply was lost, the foot frames came";
+  EXPECT_EQ(f.id, rig.config.foot_frame_ids[kFrontLeft]) << "every reply was lost, the foot frames came";
   EXPECT_DOUBLE_EQ(decode_foot(f, f.id)->force_n, 0.0) << "contact dropout reads 0 N";
 
   DeviceImperfections slow;
@@ -144,7 +149,7 @@ TEST(RobotDevice, BacklashIsADeadBandOnTheReportedAngle) {
     rig.device.reply(joint_index(kFrontLeft, true));
     can::CanFrame f;
     EXPECT_TRUE(rig.host->receive(f, 100ms));
-    return rig.config.hips[kFrontLeft].to_joint_position(mit_decode_reply(f, 0, rig.config.ranges)->position_rad);
+    return rig.config.hip(kFrontLeft).to_joint_position(mit_decode_reply(f, 0, rig.config.ranges)->position_rad);
   };
   EXPECT_NEAR(reported(0.0), 0.0, 1e-3);
   EXPECT_NEAR(reported(0.008), 0.0, 1e-3) << "inside the play: the encoder does not move";

@@ -1,5 +1,7 @@
 // SocketCAN backend: a PF_CAN raw socket bound to one interface. Filters are the kernel's
-// (CAN_RAW_FILTER), error frames its CAN_RAW_ERR_FILTER, timeouts ppoll().
+// (CAN_RAW_FILTER), error frames its CAN_RAW_ERR_FILTER, timeouts ppoll(). CAN-FD frames go as struct
+// canfd_frame once CAN_RAW_FD_FRAMES is on; that works only on an interface configured for FD (MTU 72:
+// `ip link set can0 type can bitrate 1000000 dbitrate 5000000 fd on`), which the constructor reads.
 #include <fcntl.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
@@ -52,17 +54,41 @@ class SocketCanBus final : public CanBus {
       throw CanError(fmt::format("{}: cannot bind to '{}': {}", uri_, uri.interface, errno_text(error)));
     }
     set_error_frames(false);
+    // FD frames on the socket are harmless for classic use: the kernel still reads classic frames as
+    // CAN_MTU-sized reads. Whether the interface itself is FD decides whether FD frames can be sent.
+    const int on = 1;
+    fd_frames_ = ::setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FD_FRAMES, &on, sizeof(on)) == 0;
+    if (::ioctl(fd_, SIOCGIFMTU, &ifr) == 0) interface_mtu_ = ifr.ifr_mtu;
   }
   ~SocketCanBus() override { ::close(fd_); }
 
   void send(const CanFrame& frame) override {
     if (auto problem = frame_problem(frame)) throw CanError(fmt::format("{}: cannot send {}: {}", uri_, to_string(frame), *problem));
-    struct can_frame raw {};
-    raw.can_id = frame.id | (frame.extended ? CAN_EFF_FLAG : 0u) | (frame.remote ? CAN_RTR_FLAG : 0u);
-    raw.can_dlc = frame.length;
-    std::memcpy(raw.data, frame.data.data(), frame.length);
-    const ssize_t n = ::write(fd_, &raw, sizeof(raw));
-    if (n != static_cast<ssize_t>(sizeof(raw))) {
+    const canid_t id = frame.id | (frame.extended ? CAN_EFF_FLAG : 0u) | (frame.remote ? CAN_RTR_FLAG : 0u);
+    ssize_t n = 0;
+    std::size_t size = 0;
+    if (frame.fd) {
+      if (!fd_frames_ || interface_mtu_ != static_cast<int>(CANFD_MTU)) {
+        throw CanError(fmt::format("{}: cannot send the CAN-FD frame {}: the interface is not in CAN-FD mode (MTU {}, "
+                                   "needs {}: ip link set IFACE type can bitrate 1000000 dbitrate 5000000 fd on)",
+                                   uri_, to_string(frame), interface_mtu_, CANFD_MTU));
+      }
+      struct canfd_frame raw {};
+      raw.can_id = id;
+      raw.len = frame.length;
+      raw.flags = frame.bit_rate_switch ? CANFD_BRS : 0;
+      std::memcpy(raw.data, frame.data.data(), frame.length);
+      size = sizeof(raw);
+      n = ::write(fd_, &raw, size);
+    } else {
+      struct can_frame raw {};
+      raw.can_id = id;
+      raw.can_dlc = frame.length;
+      std::memcpy(raw.data, frame.data.data(), frame.length);
+      size = sizeof(raw);
+      n = ::write(fd_, &raw, size);
+    }
+    if (n != static_cast<ssize_t>(size)) {
       throw CanError(fmt::format("{}: send failed: {}", uri_, n < 0 ? errno_text(errno) : "short write"));
     }
     ++counters_.sent;
@@ -77,13 +103,16 @@ class SocketCanBus final : public CanBus {
       throw CanError(fmt::format("{}: poll failed: {}", uri_, errno_text(errno)));
     }
     if (ready == 0) return false;
-    struct can_frame raw {};
+    // With CAN_RAW_FD_FRAMES a read returns CAN_MTU bytes for a classic frame and CANFD_MTU for an FD one;
+    // the two structs share their header layout.
+    struct canfd_frame raw {};
     const ssize_t n = ::read(fd_, &raw, sizeof(raw));
     if (n < 0) {
       if (errno == EAGAIN || errno == EINTR) return false;
       throw CanError(fmt::format("{}: receive failed: {}", uri_, errno_text(errno)));
     }
-    if (n != static_cast<ssize_t>(sizeof(raw)) || raw.can_dlc > CAN_MAX_DLEN) {
+    const bool fd = n == static_cast<ssize_t>(CANFD_MTU);
+    if ((!fd && n != static_cast<ssize_t>(CAN_MTU)) || raw.len > (fd ? CANFD_MAX_DLEN : CAN_MAX_DLEN)) {
       ++counters_.malformed;
       return false;
     }
@@ -92,8 +121,10 @@ class SocketCanBus final : public CanBus {
     out.extended = (raw.can_id & CAN_EFF_FLAG) != 0;
     out.remote = (raw.can_id & CAN_RTR_FLAG) != 0;
     out.id = raw.can_id & (out.error ? CAN_ERR_MASK : out.extended ? CAN_EFF_MASK : CAN_SFF_MASK);
-    out.length = raw.can_dlc;
-    std::memcpy(out.data.data(), raw.data, raw.can_dlc);
+    out.fd = fd;
+    out.bit_rate_switch = fd && (raw.flags & CANFD_BRS) != 0;
+    out.length = raw.len;
+    std::memcpy(out.data.data(), raw.data, raw.len);
     ++counters_.received;
     return true;
   }
@@ -123,6 +154,8 @@ class SocketCanBus final : public CanBus {
  private:
   std::string uri_;
   int fd_ = -1;
+  bool fd_frames_ = false;  // CAN_RAW_FD_FRAMES accepted by the kernel
+  int interface_mtu_ = 0;   // CAN_MTU (16) classic, CANFD_MTU (72) an FD interface
   AtomicCounters counters_;
 };
 

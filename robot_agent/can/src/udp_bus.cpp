@@ -64,16 +64,17 @@ class UdpBus final : public CanBus {
   // Thread-safe against receive() and other send() calls on the controller side (the agent's watchdog
   // sends from its own thread): the datagram is built on the stack and send(2) is atomic per datagram.
   void send(std::span<const CanFrame> frames) override {
-    std::uint8_t tx[kMaxFramesPerDatagram * kUdpFrameSize];
+    std::uint8_t tx[kMaxDatagramSize];
     while (!frames.empty()) {
       const std::size_t count = std::min(frames.size(), kMaxFramesPerDatagram);
+      std::size_t bytes = 0;
       for (std::size_t i = 0; i < count; ++i) {
         if (auto problem = frame_problem(frames[i])) {
           throw CanError(fmt::format("{}: cannot send {}: {}", uri_, to_string(frames[i]), *problem));
         }
-        encode_udp_frame(frames[i], std::span<std::uint8_t, kUdpFrameSize>(tx + i * kUdpFrameSize, kUdpFrameSize));
+        bytes += encode_udp_record(frames[i], std::span<std::uint8_t>(tx + bytes, sizeof(tx) - bytes));
       }
-      transmit(tx, count * kUdpFrameSize, count);
+      transmit(tx, bytes, count);
       frames = frames.subspan(count);
     }
   }
@@ -141,18 +142,23 @@ class UdpBus final : public CanBus {
       if (errno == EAGAIN || errno == EINTR || errno == ECONNREFUSED) return true;  // nothing usable; try again
       throw CanError(fmt::format("{}: receive failed: {}", uri_, std::strerror(errno)));
     }
-    if (n == 0 || n % kUdpFrameSize != 0 || static_cast<std::size_t>(n) > sizeof(rx_)) {
+    if (n == 0 || static_cast<std::size_t>(n) > sizeof(rx_)) {
       counters_.malformed.fetch_add(1, std::memory_order_relaxed);
       return true;
     }
-    const std::size_t count = static_cast<std::size_t>(n) / kUdpFrameSize;
-    for (std::size_t i = 0; i < count; ++i) {
-      auto frame = decode_udp_frame(std::span<const std::uint8_t, kUdpFrameSize>(rx_ + i * kUdpFrameSize, kUdpFrameSize));
-      if (!frame) {  // one bad frame makes the whole datagram suspect
+    // Classic (16-byte) and FD (72-byte) records, each sized by its own flags byte.
+    std::size_t count = 0;
+    for (std::size_t at = 0; at < static_cast<std::size_t>(n);) {
+      std::size_t consumed = 0;
+      auto frame = count < kMaxFramesPerDatagram
+                       ? decode_udp_record(std::span<const std::uint8_t>(rx_ + at, static_cast<std::size_t>(n) - at), consumed)
+                       : std::nullopt;
+      if (!frame) {  // one bad record makes the whole datagram suspect
         counters_.malformed.fetch_add(1, std::memory_order_relaxed);
         return true;
       }
-      rx_frames_[i] = *frame;
+      rx_frames_[count++] = *frame;
+      at += consumed;
     }
     if (role_ == BusRole::kDevice) {
       peer_ = from;
@@ -170,7 +176,7 @@ class UdpBus final : public CanBus {
   bool have_peer_ = false;
   SoftwareFilter filter_;
   AtomicCounters counters_;
-  std::uint8_t rx_[kMaxFramesPerDatagram * kUdpFrameSize];
+  std::uint8_t rx_[kMaxDatagramSize];
   CanFrame rx_frames_[kMaxFramesPerDatagram];
   std::size_t pending_ = 0;
   std::size_t next_ = 0;

@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "cpgmatch/errors.hpp"
 #include "cpgmatch/robot/sensor_protocol.hpp"
 
 namespace cpgmatch::robot {
@@ -27,19 +28,37 @@ CanPlant::CanPlant(const RobotConfig& config, can::CanBus& bus, CanPlantOptions 
       period_s_(1.0 / config.control_rate_hz),
       period_ns_(std::llround(1e9 / config.control_rate_hz)),
       timeout_ns_(std::llround(config.safety.feedback_timeout_s * 1e9)),
+      joint_count_(config.joint_count()),
       timer_(period_ns_) {
-  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
-    joints_[joint_index(leg, true)] = &config_.hips[leg];
-    joints_[joint_index(leg, false)] = &config_.knees[leg];
-  }
+  if (auto why = config_.plant_mismatch()) throw InputError(*why);
   std::vector<can::CanFilter> filters;
-  for (int j = 0; j < kNumJoints; ++j) {
-    motors_[j] = std::make_unique<MitMotor>(joints_[j]->node_id, config_.host_id, config_.ranges);
+  std::size_t max_frames = 0;
+  for (const JointConfig& joint : config_.joints) {
+    motors_.push_back(make_joint_protocol(joint));
+    motors_.back()->feedback_filters(filters);
+    max_frames += motors_.back()->max_frames();
+    joint_timeout_ns_.push_back(std::llround(config_.feedback_timeout_s(joint) * 1e9));
+    // The stall watch waits for the slowest joint's timeout.
+    timeout_ns_ = std::max(timeout_ns_, joint_timeout_ns_.back());
   }
-  filters.push_back(motors_[0]->feedback_filter());  // every MIT reply arrives on the host id
-  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) filters.push_back({config_.foot_node_ids[leg], can::kMaxStandardId, false});
-  filters.push_back({config_.trunk_node_id, can::kMaxStandardId, false});
-  filters.push_back({config_.trunk_node_id + 1, can::kMaxStandardId, false});
+  for (int leg = 0; leg < config_.leg_count(); ++leg) {
+    hip_of_leg_.push_back(config_.joint_index(leg, JointRole::kHip));
+    knee_of_leg_.push_back(config_.joint_index(leg, JointRole::kKnee));
+    filters.push_back({config_.foot_frame_ids[leg], can::kMaxStandardId, false});
+  }
+  filters.push_back({config_.trunk_pose_frame_id, can::kMaxStandardId, false});
+  filters.push_back({config_.trunk_speed_frame_id, can::kMaxStandardId, false});
+  loop_frames_.reserve(max_frames);
+  safe_frames_.reserve(max_frames);
+  const std::size_t n = static_cast<std::size_t>(joint_count_);
+  sent_.assign(n, MotorCommand{});
+  position_.assign(n, 0.0);
+  velocity_.assign(n, 0.0);
+  torque_.assign(n, 0.0);
+  motor_heard_ns_.assign(n, 0);
+  targets_ = PerLeg<JointCommand>(config_.legs.size());
+  foot_force_.assign(config_.legs.size(), 0.0);
+  foot_heard_ns_.assign(config_.legs.size(), 0);
   bus_.set_filters(filters);
   bus_.set_error_frames(true);
   if (options_.watchdog_thread) watch_thread_ = std::thread([this] { watch_loop(); });
@@ -75,14 +94,17 @@ std::optional<std::string> CanPlant::fault() const {
 }
 
 void CanPlant::send_safe_state() {
-  std::array<can::CanFrame, kNumJoints> frames;
-  for (int j = 0; j < kNumJoints; ++j) {
+  // Any thread may trip (the loop, the watch thread, a signal or DDS thread's emergency stop): the safe
+  // state has its own frames under a lock, taken only on this fault path.
+  std::lock_guard<std::mutex> lock(safe_mutex_);
+  safe_frames_.clear();
+  for (int j = 0; j < joint_count_; ++j) {
     MotorCommand safe;  // kp = 0, feed-forward 0: the motor only damps
-    safe.kd_nm_s_per_rad = joints_[j]->to_motor_kd(config_.safety.safe_damping_nm_s_per_rad);
-    frames[j] = motors_[j]->command(safe);
+    safe.kd_nm_s_per_rad = config_.joints[j].to_motor_kd(config_.safe_damping(config_.joints[j]));
+    motors_[j]->command(safe, safe_frames_);
   }
   try {
-    bus_.send(frames);
+    bus_.send(safe_frames_.frames());
   } catch (const can::CanError&) {
     // A broken bus cannot carry the safe state; the drivers' own CAN timeout is the last line.
   }
@@ -108,30 +130,32 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
   can::CanFrame stale;
   while (bus_.receive(stale, std::chrono::nanoseconds(0))) {
   }
-  // Enter motor mode; an MIT motor answers with its state. Retried, since a frame can be lost.
+  // Enable (closed loop, limp until the first command); each protocol's device then reports its state.
+  // Retried, since a frame can be lost.
   const std::int64_t asked = monotonic_ns();
   const auto wait_ns = std::llround(options_.enable_timeout_s * 1e9);
   for (int attempt = 0; attempt < 3 && !everything_heard_since(asked); ++attempt) {
-    std::array<can::CanFrame, kNumJoints> enable;
-    for (int j = 0; j < kNumJoints; ++j) enable[j] = motors_[j]->enable();
-    bus_.send(enable);
+    loop_frames_.clear();
+    for (auto& motor : motors_) motor->enable(loop_frames_);
+    bus_.send(loop_frames_.frames());
     receive_until(monotonic_ns() + wait_ns / 3);
   }
   if (tripped()) return fault();
-  for (int j = 0; j < kNumJoints; ++j) {
+  for (int j = 0; j < joint_count_; ++j) {
     if (motor_heard_ns_[j] < asked) {
-      trip("motor %s (node %u) does not answer", joint_label(*joints_[j]), joints_[j]->node_id);
+      const JointConfig& joint = config_.joints[j];
+      trip("motor %s (%s node %u) does not answer", joint_label(joint), joint.protocol.c_str(), joint.node_id);
       return fault();
     }
   }
-  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
+  for (int leg = 0; leg < config_.leg_count(); ++leg) {
     if (foot_heard_ns_[leg] < asked) {
-      trip("%s foot sensor (node %u) is silent", kHardwareLegNames[leg].data(), config_.foot_node_ids[leg]);
+      trip("%s foot sensor (frame id %u) is silent", config_.legs[leg].c_str(), config_.foot_frame_ids[leg]);
       return fault();
     }
   }
   if (trunk_heard_ns_ < asked) {
-    trip("trunk sensor (node %u) is silent", config_.trunk_node_id);
+    trip("trunk sensor (frame id %u) is silent", config_.trunk_pose_frame_id);
     return fault();
   }
   // Answers to repeated enables may still be on their way; left in the queue they would be taken for
@@ -144,8 +168,8 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
 
   // Ramp to the standing pose (all joint targets 0) at the configured speed, from where the joints are.
   double distance = 0.0;
-  std::array<double, kNumJoints> start{};
-  for (int j = 0; j < kNumJoints; ++j) {
+  std::vector<double> start(static_cast<std::size_t>(joint_count_));
+  for (int j = 0; j < joint_count_; ++j) {
     start[j] = position_[j];
     distance = std::max(distance, std::abs(start[j]));
   }
@@ -155,10 +179,10 @@ std::optional<std::string> CanPlant::prepare(double rollout_s) {
     const int steps = static_cast<int>(std::ceil(distance / config_.safety.stand_ramp_speed_rad_s / period_s_));
     for (int step = 1; step <= steps && !tripped(); ++step) {
       const double remaining = 1.0 - static_cast<double>(step) / steps;
-      PerLeg<JointCommand> ramp(kHardwareLegs);
-      for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
-        ramp[leg].hip_angle_rad = start[joint_index(leg, true)] * remaining;
-        ramp[leg].knee_flexion_rad = start[joint_index(leg, false)] * remaining;
+      PerLeg<JointCommand> ramp(config_.legs.size());
+      for (int leg = 0; leg < config_.leg_count(); ++leg) {
+        ramp[leg].hip_angle_rad = start[hip_of_leg_[leg]] * remaining;
+        ramp[leg].knee_flexion_rad = start[knee_of_leg_[leg]] * remaining;
       }
       command(ramp);
       advance(period_s_);
@@ -184,19 +208,20 @@ void CanPlant::finish() {
   active_ = false;
   heartbeat_ns_ = 0;  // the loop stops ticking on purpose: the watch thread must not trip
   send_safe_state();
-  std::array<can::CanFrame, kNumJoints> off;
-  for (int j = 0; j < kNumJoints; ++j) off[j] = motors_[j]->disable();
+  std::lock_guard<std::mutex> lock(safe_mutex_);
+  safe_frames_.clear();
+  for (auto& motor : motors_) motor->disable(safe_frames_);
   try {
-    bus_.send(off);
+    bus_.send(safe_frames_.frames());
   } catch (const can::CanError&) {
   }
 }
 
 void CanPlant::command(const PerLeg<JointCommand>& commands) {
-  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
+  for (int leg = 0; leg < config_.leg_count(); ++leg) {
     JointCommand c = commands[leg];
-    const JointConfig& hip = config_.hips[leg];
-    const JointConfig& knee = config_.knees[leg];
+    const JointConfig& hip = config_.joints[hip_of_leg_[leg]];
+    const JointConfig& knee = config_.joints[knee_of_leg_[leg]];
     auto bounded = [&](double target, const JointConfig& j, int index) {
       if (!std::isfinite(target)) target = position_[index];  // a NaN target holds the joint where it is
       target = std::clamp(target, j.position_min_rad, j.position_max_rad);
@@ -211,32 +236,28 @@ void CanPlant::command(const PerLeg<JointCommand>& commands) {
       }
       return target;
     };
-    c.hip_angle_rad = bounded(c.hip_angle_rad, hip, joint_index(leg, true));
-    c.knee_flexion_rad = bounded(c.knee_flexion_rad, knee, joint_index(leg, false));
+    c.hip_angle_rad = bounded(c.hip_angle_rad, hip, hip_of_leg_[leg]);
+    c.knee_flexion_rad = bounded(c.knee_flexion_rad, knee, knee_of_leg_[leg]);
     targets_[leg] = c;
   }
 }
 
 void CanPlant::send_commands() {
-  std::array<can::CanFrame, kNumJoints> frames;
-  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
-    for (const bool hip : {true, false}) {
-      const int j = joint_index(leg, hip);
-      const JointConfig& joint = *joints_[j];
-      MotorCommand& m = sent_[j];
-      m = MotorCommand{};
-      if (hip && targets_[leg].hip_passive) {  // impact mitigation: the motor produces no torque
-        frames[j] = motors_[j]->command(m);
-        continue;
-      }
-      const double target = hip ? targets_[leg].hip_angle_rad : targets_[leg].knee_flexion_rad;
-      m.position_rad = joint.to_motor_position(target);
+  loop_frames_.clear();
+  for (int j = 0; j < joint_count_; ++j) {
+    const JointConfig& joint = config_.joints[j];
+    const bool hip = joint.role == JointRole::kHip;
+    const JointCommand& target = targets_[joint.leg];
+    MotorCommand& m = sent_[j];
+    m = MotorCommand{};
+    if (!(hip && target.hip_passive)) {  // a passive hip (impact mitigation): kp = kd = 0, no torque
+      m.position_rad = joint.to_motor_position(hip ? target.hip_angle_rad : target.knee_flexion_rad);
       m.kp_nm_per_rad = joint.to_motor_kp(joint.kp_nm_per_rad);
       m.kd_nm_s_per_rad = joint.to_motor_kd(joint.kd_nm_s_per_rad);
-      frames[j] = motors_[j]->command(m);
     }
+    motors_[j]->command(m, loop_frames_);
   }
-  bus_.send(frames);
+  bus_.send(loop_frames_.frames());
 }
 
 bool CanPlant::handle(const can::CanFrame& frame, std::int64_t now_ns) {
@@ -244,38 +265,40 @@ bool CanPlant::handle(const can::CanFrame& frame, std::int64_t now_ns) {
     if (frame.id & kCanErrBusOff) trip("CAN controller is bus-off");
     return true;
   }
-  if (frame.id == config_.host_id) {
-    for (int j = 0; j < kNumJoints; ++j) {
-      const FeedbackResult r = motors_[j]->decode_feedback(frame);
-      if (r.status == FeedbackStatus::kWrongLength) break;
-      if (r.status != FeedbackStatus::kOk) continue;
-      const JointConfig& joint = *joints_[j];
-      position_[j] = joint.to_joint_position(r.feedback.position_rad);
-      velocity_[j] = joint.to_joint_velocity(r.feedback.velocity_rad_s);
-      torque_[j] = joint.to_joint_torque(r.feedback.torque_nm);
-      motor_heard_ns_[j] = now_ns;
+  for (int j = 0; j < joint_count_; ++j) {
+    const FeedbackResult r = motors_[j]->decode_feedback(frame);
+    if (r.status == FeedbackStatus::kNotMine) continue;
+    if (r.status != FeedbackStatus::kOk) break;  // this motor's id, but a corrupt frame
+    const JointConfig& joint = config_.joints[j];
+    if (r.fault != 0) {
+      trip("motor %s (%s node %u) reports %s 0x%X", joint_label(joint), joint.protocol.c_str(), joint.node_id, r.fault_kind, r.fault);
       return true;
     }
-    ++unexpected_frames_;
-    return false;
+    if (r.has_position) {
+      position_[j] = joint.to_joint_position(r.feedback.position_rad);
+      velocity_[j] = joint.to_joint_velocity(r.feedback.velocity_rad_s);
+      motor_heard_ns_[j] = now_ns;
+    }
+    if (r.has_torque) torque_[j] = joint.to_joint_torque(r.feedback.torque_nm);
+    return true;
   }
-  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
-    if (frame.id != config_.foot_node_ids[leg]) continue;
+  for (int leg = 0; leg < config_.leg_count(); ++leg) {
+    if (frame.id != config_.foot_frame_ids[leg] || frame.extended) continue;
     const auto reading = decode_foot(frame, frame.id);
     if (!reading) break;
-    if (reading->fault) trip("%s foot sensor reports a fault", kHardwareLegNames[leg].data());
+    if (reading->fault) trip("%s foot sensor reports a fault", config_.legs[leg].c_str());
     foot_force_[leg] = reading->force_n;
     foot_heard_ns_[leg] = now_ns;
     return true;
   }
-  if (const auto pose = decode_trunk_pose(frame, config_.trunk_node_id)) {
+  if (const auto pose = decode_trunk_pose(frame, config_.trunk_pose_frame_id)) {
     trunk_.x_m = pose->x_m;
     trunk_.pitch_rad = pose->pitch_rad;
     trunk_.height_m = pose->height_m;
     trunk_heard_ns_ = now_ns;
     return true;
   }
-  if (const auto speed = decode_trunk_speed(frame, config_.trunk_node_id)) {
+  if (const auto speed = decode_trunk_speed(frame, config_.trunk_speed_frame_id)) {
     trunk_.vx_mps = *speed;
     return true;
   }
@@ -318,10 +341,11 @@ void CanPlant::receive_until(std::int64_t deadline_ns) {
 
 void CanPlant::check_watchdog(std::int64_t now_ns) {
   auto silence = [&](std::int64_t heard_ns) { return now_ns - std::max(heard_ns, expect_since_ns_); };
-  for (int j = 0; j < kNumJoints; ++j) {
-    const JointConfig& joint = *joints_[j];
-    if (silence(motor_heard_ns_[j]) > timeout_ns_) {
-      trip("motor %s (node %u) silent for %.1f ms", joint_label(joint), joint.node_id, silence(motor_heard_ns_[j]) * 1e-6);
+  for (int j = 0; j < joint_count_; ++j) {
+    const JointConfig& joint = config_.joints[j];
+    if (silence(motor_heard_ns_[j]) > joint_timeout_ns_[j]) {
+      trip("motor %s (%s node %u) silent for %.1f ms", joint_label(joint), joint.protocol.c_str(), joint.node_id,
+           silence(motor_heard_ns_[j]) * 1e-6);
       return;
     }
     if (std::abs(velocity_[j]) > joint.velocity_max_rad_s) {
@@ -334,13 +358,14 @@ void CanPlant::check_watchdog(std::int64_t now_ns) {
       return;
     }
   }
-  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
-    if (silence(foot_heard_ns_[leg]) > timeout_ns_) {
-      trip("%s foot sensor silent for %.1f ms", kHardwareLegNames[leg].data(), silence(foot_heard_ns_[leg]) * 1e-6);
+  const std::int64_t sensor_timeout_ns = std::llround(config_.safety.feedback_timeout_s * 1e9);
+  for (int leg = 0; leg < config_.leg_count(); ++leg) {
+    if (silence(foot_heard_ns_[leg]) > sensor_timeout_ns) {
+      trip("%s foot sensor silent for %.1f ms", config_.legs[leg].c_str(), silence(foot_heard_ns_[leg]) * 1e-6);
       return;
     }
   }
-  if (silence(trunk_heard_ns_) > timeout_ns_) {
+  if (silence(trunk_heard_ns_) > sensor_timeout_ns) {
     trip("trunk sensor silent for %.1f ms", silence(trunk_heard_ns_) * 1e-6);
   }
 }
@@ -352,7 +377,7 @@ void CanPlant::advance(double /*dt_s: always the control period; the rollout ask
   }
   const std::int64_t tick_start = monotonic_ns();
   if (expect_since_ns_ == 0) expect_since_ns_ = tick_start;
-  for (int j = 0; j < kNumJoints; ++j) {
+  for (int j = 0; j < joint_count_; ++j) {
     if (tick_start - motor_heard_ns_[j] > period_ns_ + period_ns_ / 2) ++missing_replies_;
   }
   bool overran = false;
@@ -400,17 +425,18 @@ PlantState CanPlant::state() const {
     s.trunk.pitch_rad = std::numeric_limits<double>::quiet_NaN();
     fault_seen_.store(true, std::memory_order_release);
   }
-  s.legs = PerLeg<LegState>(kHardwareLegs);
-  for (std::size_t leg = 0; leg < kHardwareLegs; ++leg) {
+  s.legs = PerLeg<LegState>(config_.legs.size());
+  for (int leg = 0; leg < config_.leg_count(); ++leg) {
     LegState& l = s.legs[leg];
-    l.hip_angle_rad = position_[joint_index(leg, true)];
-    l.knee_flexion_rad = position_[joint_index(leg, false)];
-    l.hip_torque_nm = torque_[joint_index(leg, true)];
-    l.knee_torque_nm = torque_[joint_index(leg, false)];
+    const int hip = hip_of_leg_[leg], knee = knee_of_leg_[leg];
+    l.hip_angle_rad = position_[hip];
+    l.knee_flexion_rad = position_[knee];
+    l.hip_torque_nm = torque_[hip];
+    l.knee_torque_nm = torque_[knee];
     l.foot_normal_force_n = foot_force_[leg];
     // The motors' own encoders: the knee motor's is its output, the spring's rest side (energy.hpp needs it).
-    l.hip_speed_rad_s = velocity_[joint_index(leg, true)];
-    l.knee_motor_speed_rad_s = velocity_[joint_index(leg, false)];
+    l.hip_speed_rad_s = velocity_[hip];
+    l.knee_motor_speed_rad_s = velocity_[knee];
   }
   return s;
 }

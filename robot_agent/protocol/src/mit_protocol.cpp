@@ -45,13 +45,13 @@ can::CanFrame mit_special_frame(std::uint32_t node_id, MitSpecial which) {
   can::CanFrame f;
   f.id = node_id;
   f.length = kMitCommandLength;
-  f.data.fill(0xFF);
+  std::fill_n(f.data.begin(), kMitCommandLength, std::uint8_t{0xFF});
   f.data[7] = static_cast<std::uint8_t>(which);
   return f;
 }
 
 std::optional<MotorFeedback> mit_decode_reply(const can::CanFrame& f, std::uint32_t host_id, const MitRanges& r) {
-  if (f.error || f.remote || f.extended || f.id != host_id || f.length != kMitReplyLength) return std::nullopt;
+  if (f.error || f.remote || f.extended || f.fd || f.id != host_id || f.length != kMitReplyLength) return std::nullopt;
   const std::uint32_t p = (std::uint32_t{f.data[1]} << 8) | f.data[2];
   const std::uint32_t v = (std::uint32_t{f.data[3]} << 4) | (f.data[4] >> 4);
   const std::uint32_t t = ((std::uint32_t{f.data[4]} & 0xF) << 8) | f.data[5];
@@ -64,7 +64,7 @@ std::optional<MotorFeedback> mit_decode_reply(const can::CanFrame& f, std::uint3
 }
 
 std::optional<MitReceived> mit_decode_command(const can::CanFrame& f, const MitRanges& r) {
-  if (f.error || f.remote || f.extended || f.length != kMitCommandLength) return std::nullopt;
+  if (f.error || f.remote || f.extended || f.fd || f.length != kMitCommandLength) return std::nullopt;
   MitReceived received;
   if (std::all_of(f.data.begin(), f.data.begin() + 7, [](std::uint8_t b) { return b == 0xFF; })) {
     switch (f.data[7]) {
@@ -116,9 +116,9 @@ can::CanFrame MitMotor::enable() const { return mit_special_frame(node_id_, MitS
 can::CanFrame MitMotor::disable() const { return mit_special_frame(node_id_, MitSpecial::kExitMotorMode); }
 can::CanFrame MitMotor::set_zero() const { return mit_special_frame(node_id_, MitSpecial::kSetZero); }
 
-FeedbackResult MitMotor::decode_feedback(const can::CanFrame& f) const {
+FeedbackResult MitMotor::decode(const can::CanFrame& f) const {
   FeedbackResult result;
-  if (f.error || f.remote || f.extended || f.id != host_id_) return result;  // not a reply at all
+  if (f.error || f.remote || f.extended || f.fd || f.id != host_id_) return result;  // not a reply at all
   if (f.length != kMitReplyLength) {
     result.status = FeedbackStatus::kWrongLength;
     return result;
@@ -126,6 +126,8 @@ FeedbackResult MitMotor::decode_feedback(const can::CanFrame& f) const {
   if (f.data[0] != node_id_) return result;  // another motor's reply
   result.feedback = *mit_decode_reply(f, host_id_, ranges_);
   result.status = FeedbackStatus::kOk;
+  result.has_position = true;
+  result.has_torque = true;
   return result;
 }
 

@@ -25,7 +25,7 @@ std::uint16_t get16(const can::CanFrame& f, int at) {
 }
 
 bool is_data_frame(const can::CanFrame& f, std::uint32_t id, std::uint8_t length) {
-  return !f.error && !f.remote && !f.extended && f.id == id && f.length == length;
+  return !f.error && !f.remote && !f.extended && !f.fd && f.id == id && f.length == length;
 }
 
 }  // namespace
@@ -74,16 +74,16 @@ std::optional<TrunkReading> decode_trunk_pose(const can::CanFrame& f, std::uint3
   return r;
 }
 
-can::CanFrame encode_trunk_speed(std::uint32_t node_id, double vx_mps) {
+can::CanFrame encode_trunk_speed(std::uint32_t frame_id, double vx_mps) {
   can::CanFrame f;
-  f.id = node_id + 1;
+  f.id = frame_id;
   f.length = kTrunkSpeedLength;
   put16(f, 0, static_cast<std::uint16_t>(scaled<std::int16_t>(vx_mps, 1e-3)));
   return f;
 }
 
-std::optional<double> decode_trunk_speed(const can::CanFrame& f, std::uint32_t node_id) {
-  if (!is_data_frame(f, node_id + 1, kTrunkSpeedLength)) return std::nullopt;
+std::optional<double> decode_trunk_speed(const can::CanFrame& f, std::uint32_t frame_id) {
+  if (!is_data_frame(f, frame_id, kTrunkSpeedLength)) return std::nullopt;
   return static_cast<std::int16_t>(get16(f, 0)) * 1e-3;
 }
 

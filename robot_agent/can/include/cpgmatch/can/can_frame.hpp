@@ -1,8 +1,9 @@
-// A classic CAN frame (up to 8 data bytes) and a receive filter, independent of any backend.
+// A CAN frame, classic (up to 8 data bytes) or CAN-FD (up to 64), and a receive filter, independent of
+// any backend.
 //
-// The fields mirror Linux's struct can_frame (linux/can.h) without its flag bits packed into the id, so
-// code above the bus never depends on kernel headers; the SocketCAN backend and the UDP wire format map
-// them back to CAN_EFF_FLAG / CAN_RTR_FLAG / CAN_ERR_FLAG.
+// The fields mirror Linux's struct can_frame / struct canfd_frame (linux/can.h) without the flag bits
+// packed into the id, so code above the bus never depends on kernel headers; the SocketCAN backend and
+// the UDP wire format map them back to CAN_EFF_FLAG / CAN_RTR_FLAG / CAN_ERR_FLAG and CANFD_BRS.
 #pragma once
 
 #include <array>
@@ -15,19 +16,29 @@ namespace cpgmatch::can {
 inline constexpr std::uint32_t kMaxStandardId = 0x7FF;        // 11 bits
 inline constexpr std::uint32_t kMaxExtendedId = 0x1FFFFFFF;   // 29 bits
 inline constexpr std::size_t kMaxDataLength = 8;              // classic CAN
+inline constexpr std::size_t kMaxFdDataLength = 64;           // CAN-FD
 
 struct CanFrame {
   std::uint32_t id = 0;       // 11-bit (standard) or 29-bit (extended) identifier, no flag bits
   bool extended = false;      // 29-bit identifier
   bool remote = false;        // remote transmission request (no data)
   bool error = false;         // an error frame reported by the controller: id holds the error class bits
-  std::uint8_t length = 0;    // 0..8 data bytes
-  std::array<std::uint8_t, kMaxDataLength> data{};
+  bool fd = false;            // a CAN-FD frame: up to 64 data bytes, never remote
+  bool bit_rate_switch = false;  // FD only: the data phase at the faster data bit rate (CANFD_BRS)
+  std::uint8_t length = 0;    // 0..8 data bytes (classic); 0..8, 12, 16, 20, 24, 32, 48, 64 (FD)
+  std::array<std::uint8_t, kMaxFdDataLength> data{};
 
-  bool operator==(const CanFrame&) const = default;
+  // Equal when the header and the first `length` data bytes are (bytes beyond the length carry nothing).
+  bool operator==(const CanFrame& other) const;
 };
 
-// Why a frame cannot go on a classic CAN bus (id too wide, length over 8), or nullopt when it can.
+// The data lengths a CAN-FD frame can have (its DLC codes 0..15), and the smallest of them holding n bytes
+// (n <= 64): a protocol pads its payload up to it.
+bool is_fd_length(std::size_t n);
+std::uint8_t fd_length_for(std::size_t n);
+
+// Why a frame cannot go on a CAN bus (id too wide, a classic length over 8, an FD length that is no DLC,
+// a remote FD frame), or nullopt when it can.
 std::optional<std::string> frame_problem(const CanFrame& frame);
 
 // Accepts a data frame when (frame.id & mask) == (id & mask) and the id width matches, like
@@ -43,7 +54,8 @@ struct CanFilter {
   }
 };
 
-// "123#0102" style text for logs and test failure messages (the notation of can-utils' candump).
+// "123#0102" style text for logs and test failure messages (the notation of can-utils' candump; FD frames
+// as "123##<flags>0102", flags 1 = bit rate switch).
 std::string to_string(const CanFrame& frame);
 
 }  // namespace cpgmatch::can

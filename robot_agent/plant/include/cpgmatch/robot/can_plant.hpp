@@ -1,9 +1,10 @@
 // CanPlant: the Plant interface (common/include/cpgmatch/plant.hpp) backed by the robot's motor bus, so
 // that the very same controller, contact sensing and cost (common/ run_rollout) drive the real robot.
 //
-// One control period per advance(): send every motor its impedance command (after the limits), collect
-// the motors' replies and the sensor frames, sleep to the absolute deadline, check the watchdog. The
-// loop neither allocates nor locks nor logs; faults are written into a fixed buffer.
+// One control period per advance(): send every motor its impedance command (after the limits) in its own
+// protocol (a MotorProtocol per joint, from the robot description), collect the motors' feedback and the
+// sensor frames, sleep to the absolute deadline, check the watchdog. The loop neither allocates nor locks
+// nor logs; faults are written into a fixed buffer.
 //
 // Safety (docs/robot_agent.md):
 // - position targets are clamped to each joint's limits and to where kp x (target - measured) stays
@@ -24,15 +25,14 @@
 
 #include "cpgmatch/can/can_bus.hpp"
 #include "cpgmatch/plant.hpp"
-#include "cpgmatch/robot/mit_protocol.hpp"
+#include <mutex>
+#include <vector>
+
+#include "cpgmatch/robot/motor_protocol.hpp"
 #include "cpgmatch/robot/realtime.hpp"
 #include "cpgmatch/robot/robot_config.hpp"
 
 namespace cpgmatch::robot {
-
-inline constexpr int kNumJoints = 2 * static_cast<int>(kHardwareLegs);
-// Joint index: leg * 2 + 0 for the hip, + 1 for the knee.
-inline constexpr int joint_index(int leg, bool hip) { return leg * 2 + (hip ? 0 : 1); }
 
 struct LoopStats {
   std::uint64_t ticks = 0;
@@ -58,6 +58,7 @@ struct CanPlantOptions {
 
 class CanPlant final : public Plant {
  public:
+  // Throws InputError when the description's leg count is not the Plant's (RobotConfig::plant_mismatch).
   CanPlant(const RobotConfig& config, can::CanBus& bus, CanPlantOptions options = {});
   ~CanPlant() override;
   CanPlant(const CanPlant&) = delete;
@@ -94,8 +95,9 @@ class CanPlant final : public Plant {
   // time is the difference.
   std::int64_t safe_state_sent_ns() const { return safe_sent_ns_.load(std::memory_order_acquire); }
   std::int64_t silent_since_ns() const { return silent_since_at_trip_ns_.load(std::memory_order_acquire); }
-  // The command last sent to a joint, motor-shaft units (tests, diagnostics).
+  // The command last sent to a joint (RobotConfig::joints order), motor-shaft units (tests, diagnostics).
   const MotorCommand& last_sent(int joint) const { return sent_[joint]; }
+  const MotorProtocol& motor(int joint) const { return *motors_[joint]; }
 
  private:
   void send_commands();
@@ -113,18 +115,23 @@ class CanPlant final : public Plant {
   CanPlantOptions options_;
   double period_s_;
   std::int64_t period_ns_;
-  std::int64_t timeout_ns_;
-  std::array<const JointConfig*, kNumJoints> joints_{};
-  std::array<std::unique_ptr<MitMotor>, kNumJoints> motors_;
+  std::int64_t timeout_ns_;  // the robot's feedback timeout (the stall watch)
+  int joint_count_;
+  std::vector<std::unique_ptr<MotorProtocol>> motors_;   // per joint, RobotConfig::joints order
+  std::vector<std::int64_t> joint_timeout_ns_;           // per joint feedback timeout
+  std::vector<int> hip_of_leg_, knee_of_leg_;            // leg -> joint index
+  FrameSink loop_frames_;                                // the control loop's outgoing frames
+  FrameSink safe_frames_;                                // the safe state's, from whichever thread trips
+  std::mutex safe_mutex_;                                // guards safe_frames_ (only taken on the fault path)
 
   // Targets (joint units) after the limits, and what went out (motor units).
-  PerLeg<JointCommand> targets_ = PerLeg<JointCommand>(kHardwareLegs);
-  std::array<MotorCommand, kNumJoints> sent_{};
-  // Latest feedback, joint units, and when it arrived (monotonic ns; 0 = never).
-  std::array<double, kNumJoints> position_{}, velocity_{}, torque_{};
-  std::array<std::int64_t, kNumJoints> motor_heard_ns_{};
-  PerLeg<double> foot_force_ = PerLeg<double>(kHardwareLegs, 0.0);
-  PerLeg<std::int64_t> foot_heard_ns_ = PerLeg<std::int64_t>(kHardwareLegs, 0);
+  PerLeg<JointCommand> targets_{};
+  std::vector<MotorCommand> sent_;
+  // Latest feedback, joint units, and when position feedback arrived (monotonic ns; 0 = never).
+  std::vector<double> position_, velocity_, torque_;
+  std::vector<std::int64_t> motor_heard_ns_;
+  std::vector<double> foot_force_;
+  std::vector<std::int64_t> foot_heard_ns_;
   TrunkState trunk_{};
   std::int64_t trunk_heard_ns_ = 0;
   double time_s_ = 0.0;

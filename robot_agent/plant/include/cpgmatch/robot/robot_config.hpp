@@ -1,31 +1,47 @@
-// The robot description the agent and the emulator share (configs/robot/morti.yaml): which motor answers
-// on which node id, how motor-shaft values map onto the Plant's joint coordinates, the limits, the
-// sensor nodes and the safety settings. Joint coordinates are the Plant's (plant.hpp): the hip angle
-// (+ moves the foot forward) and the knee flexion on top of the standing knee angle.
+// The robot's hardware description the agent and the emulator share (configs/robot/*.yaml): its legs,
+// and per joint which leg it belongs to and whether it is that leg's hip or knee, the motor protocol and
+// node id that drive it, how motor-shaft values map onto the Plant's joint coordinates, the limits and
+// gains; the foot and trunk sensors' CAN frame ids; the safety settings, per robot and per joint.
+// Joint coordinates are the Plant's (plant.hpp): the hip angle (+ moves the foot forward) and the knee
+// flexion on top of the standing knee angle.
+//
+// Nothing here assumes a number of legs: the legs are a list, the joints a list (up to kMaxLegs legs, what
+// the Plant interface carries).
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
-#include <string_view>
 #include <utility>
+#include <vector>
 
 #include "cpgmatch/legs.hpp"
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/robot/mit_protocol.hpp"
+#include "cpgmatch/robot/moteus_protocol.hpp"
+#include "cpgmatch/robot/odrive_protocol.hpp"
 
 namespace cpgmatch::robot {
 
-// The legs this hardware description knows: Morti's layout (joints FL_hip ... HR_knee, feet FL ... HR).
-// A hardware description by joint names from the robot's YAML replaces it (issue 31).
-inline constexpr std::size_t kHardwareLegs = 4;
-inline constexpr std::array<std::string_view, kHardwareLegs> kHardwareLegNames{"FL", "FR", "HL", "HR"};
+enum class JointRole { kHip, kKnee };
+const char* to_string(JointRole role);
 
 struct JointConfig {
-  std::string name;                  // FL_hip, FL_knee, ...
-  std::uint32_t node_id = 0;
+  std::string name;                  // as the robot names it (FL_hip, FL_knee_joint, ...)
+  std::string origin;                // file:line of its entry, for messages
+  int leg = 0;                       // index into RobotConfig::legs
+  JointRole role = JointRole::kHip;
+  std::string protocol = "mit";      // mit | odrive | moteus
+  std::uint32_t node_id = 0;         // MIT node 1..255, ODrive node 0..63, moteus servo 1..127
+  MitRanges mit_ranges;              // mit: the firmware's ranges
+  OdriveSettings odrive;             // odrive: torque constant, Iq request
+  MoteusSettings moteus;             // moteus: the servo's configured gains, the host id
+  // Per-joint safety; unset: the robot's safety section (RobotConfig::feedback_timeout_s(j) etc.).
+  std::optional<double> feedback_timeout_s;
+  std::optional<double> safe_damping_nm_s_per_rad;
   double gear_ratio = 1.0;           // motor output-shaft radians per joint radian (> 0)
   int direction = 1;                 // +1, or -1 when the motor turns against the joint's + sense
   double zero_offset_rad = 0.0;      // joint angle at motor position 0
@@ -63,27 +79,47 @@ struct SafetyConfig {
 
 struct RobotConfig {
   std::string source;                     // the file it came from
-  std::string protocol = "mit";
+  std::string protocol = "mit";           // the default of joints that name no protocol
   // A description for emulators only (tests, benchmarks on a shared machine): its watchdog timeout may
   // exceed what keeps the 20 ms safety target, and the agent refuses to drive a socketcan: bus with it.
   bool emulator_only = false;
-  std::uint32_t host_id = 0;              // CAN id the motors reply on
-  MitRanges ranges;                       // the firmware's ranges (motor-shaft units)
+  std::uint32_t host_id = 0;              // MIT: the CAN id motors reply on; moteus: the agent's source id
+  MitRanges ranges;                       // MIT joints' default firmware ranges (motor-shaft units)
   double control_rate_hz = 500.0;
-  PerLeg<JointConfig> hips = PerLeg<JointConfig>(kHardwareLegs);
-  PerLeg<JointConfig> knees = PerLeg<JointConfig>(kHardwareLegs);
-  PerLeg<std::uint32_t> foot_node_ids = PerLeg<std::uint32_t>(kHardwareLegs, 0);
-  std::uint32_t trunk_node_id = 0;        // and trunk_node_id + 1
+  std::vector<std::string> legs;          // leg names in the controller's order
+  std::vector<JointConfig> joints;        // in the file's order
+  std::vector<std::uint32_t> foot_frame_ids;  // per leg: the foot sensor's CAN id (standard)
+  std::uint32_t trunk_pose_frame_id = 0;  // the trunk sensor's pose frame (standard id)
+  std::uint32_t trunk_speed_frame_id = 0; // and its speed frame
   SafetyConfig safety;
+
+  int leg_count() const { return static_cast<int>(legs.size()); }
+  int joint_count() const { return static_cast<int>(joints.size()); }
+  // The joint of `leg` with `role` (every leg has exactly one hip and one knee once loaded).
+  int joint_index(int leg, JointRole role) const;
+  const JointConfig& joint(int leg, JointRole role) const { return joints[joint_index(leg, role)]; }
+  const JointConfig& hip(int leg) const { return joint(leg, JointRole::kHip); }
+  const JointConfig& knee(int leg) const { return joint(leg, JointRole::kKnee); }
+  // A joint's safety values: its own, else the robot's.
+  double feedback_timeout_s(const JointConfig& j) const { return j.feedback_timeout_s.value_or(safety.feedback_timeout_s); }
+  double safe_damping(const JointConfig& j) const { return j.safe_damping_nm_s_per_rad.value_or(safety.safe_damping_nm_s_per_rad); }
+  // Some joint's protocol needs CAN-FD frames (moteus).
+  bool needs_fd() const;
+  // Why this description cannot drive the Plant interface (1 to kMaxLegs legs), or nullopt.
+  std::optional<std::string> plant_mismatch() const;
 
   // Why `params` may not run on the robot ("hip_amplitude = 0.7 is outside the safe envelope ..."),
   // or nullopt.
   std::optional<std::string> envelope_violation(const CpgParameters& params) const;
 };
 
-// Loads and checks a robot YAML. Throws InputError naming file:line and field: unknown or missing
-// joints, a missing or duplicate node id, limits the motor's ranges cannot represent, and so on.
+// Loads and checks a robot YAML. Throws InputError naming file:line and field: a joint without a leg or
+// role, a leg without a hip or a knee, an unknown protocol, a node id outside its protocol's range, two
+// joints (or a joint and a sensor) on one CAN id of their id space, limits a protocol cannot represent...
 RobotConfig load_robot_config(const std::string& path);
+
+// The motor protocol object (motor_factory.hpp) for a loaded joint.
+std::unique_ptr<MotorProtocol> make_joint_protocol(const JointConfig& joint);
 
 // configs/robot/morti.yaml under $CPGMATCH_CONFIG_DIR, else the source tree's configs/.
 std::string default_robot_config_path();

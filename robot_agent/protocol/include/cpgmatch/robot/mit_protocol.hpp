@@ -57,18 +57,27 @@ struct MitReceived {
 std::optional<MitReceived> mit_decode_command(const can::CanFrame& frame, const MitRanges& ranges);
 can::CanFrame mit_encode_reply(std::uint32_t host_id, const MotorFeedback& feedback, const MitRanges& ranges);
 
-// One MIT motor on the bus.
+// One MIT motor on the bus. The single-frame helpers (command(c), enable(), ...) are what the sink
+// versions append: exactly one frame each.
 class MitMotor final : public MotorProtocol {
  public:
   MitMotor(std::uint32_t node_id, std::uint32_t host_id, const MitRanges& ranges);
   std::string_view name() const override { return "mit"; }
   std::uint32_t node_id() const override { return node_id_; }
-  can::CanFrame command(const MotorCommand& command) const override;
-  can::CanFrame enable() const override;
-  can::CanFrame disable() const override;
-  can::CanFrame set_zero() const override;
-  FeedbackResult decode_feedback(const can::CanFrame& frame) const override;
-  can::CanFilter feedback_filter() const override;
+  std::size_t max_frames() const override { return 1; }
+  can::CanFrame command(const MotorCommand& command) const;
+  can::CanFrame enable() const;
+  can::CanFrame disable() const;
+  can::CanFrame set_zero() const;
+  void command(const MotorCommand& c, FrameSink& out) override { out.push(command(c)); }
+  void enable(FrameSink& out) override { out.push(enable()); }
+  void disable(FrameSink& out) override { out.push(disable()); }
+  void set_zero(FrameSink& out) override { out.push(set_zero()); }
+  FeedbackResult decode_feedback(const can::CanFrame& frame) override { return decode(frame); }
+  FeedbackResult decode(const can::CanFrame& frame) const;
+  void feedback_filters(std::vector<can::CanFilter>& out) const override { out.push_back(feedback_filter()); }
+  can::CanFilter feedback_filter() const;
+  bool answers_commands() const override { return true; }
   const MitRanges& ranges() const { return ranges_; }
 
  private:

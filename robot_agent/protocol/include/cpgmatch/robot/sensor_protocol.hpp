@@ -7,9 +7,10 @@
 //   d3      status: bit 0 = sensor fault
 // The agent thresholds the force exactly as the simulation does (common/ ContactSensor).
 //
-// Trunk state (rail / boom encoders and an IMU on the test rig), two frames:
-//   CAN id = node id, 8 bytes: x int32 (1e-5 m) | pitch int16 (1e-4 rad) | height uint16 (1e-5 m)
-//   CAN id = node id + 1, 2 bytes: forward speed int16 (1e-3 m/s)
+// Trunk state (rail / boom encoders and an IMU on the test rig), two frames, each on its own configurable
+// frame id (the robot description's trunk_sensor: pose_frame_id, speed_frame_id, by default pose + 1):
+//   pose frame, 8 bytes: x int32 (1e-5 m) | pitch int16 (1e-4 rad) | height uint16 (1e-5 m)
+//   speed frame, 2 bytes: forward speed int16 (1e-3 m/s)
 // all big-endian, clamped to their ranges.
 #pragma once
 
@@ -42,7 +43,7 @@ std::optional<FootReading> decode_foot(const can::CanFrame& frame, std::uint32_t
 
 can::CanFrame encode_trunk_pose(std::uint32_t node_id, const TrunkReading& reading);
 std::optional<TrunkReading> decode_trunk_pose(const can::CanFrame& frame, std::uint32_t node_id);
-can::CanFrame encode_trunk_speed(std::uint32_t node_id, double vx_mps);
-std::optional<double> decode_trunk_speed(const can::CanFrame& frame, std::uint32_t node_id);
+can::CanFrame encode_trunk_speed(std::uint32_t frame_id, double vx_mps);
+std::optional<double> decode_trunk_speed(const can::CanFrame& frame, std::uint32_t frame_id);
 
 }  // namespace cpgmatch::robot
