@@ -15,9 +15,14 @@ thread_local const std::string* t_addressed_to = nullptr;
 // The type this filter understands: the one fastddsgen names for msg::Candidate.
 constexpr const char* kCandidateType = "cpgmatch::msg::Candidate";
 
-class WorkerIdFilter : public fdds::IContentFilter {
+// Fast DDS's IContentFilter has no virtual destructor; the factory deletes the filters it made as
+// WorkerIdFilter, never through the base.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wnon-virtual-dtor"
+class WorkerIdFilter final : public fdds::IContentFilter {
  public:
   explicit WorkerIdFilter(std::string worker_id) : worker_id_(std::move(worker_id)) {}
+  virtual ~WorkerIdFilter() = default;
   void set(std::string worker_id) { worker_id_ = std::move(worker_id); }
 
   bool evaluate(const SerializedPayload& payload, const FilterSampleInfo&, const GUID_t&) const override {
@@ -32,6 +37,7 @@ class WorkerIdFilter : public fdds::IContentFilter {
  private:
   std::string worker_id_;
 };
+#pragma GCC diagnostic pop
 
 std::uint32_t read_u32(const unsigned char* p, bool little_endian) {
   return little_endian ? std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16 |

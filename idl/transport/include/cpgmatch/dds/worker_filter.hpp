@@ -43,8 +43,11 @@ class AddressedTo {
 // rest; false when the payload is too short to hold one (a key-only sample) or malformed.
 bool candidate_worker_id(const unsigned char* data, std::size_t length, std::string& worker_id);
 
-// One factory per process, registered on every participant (participant.cpp).
-class WorkerIdFilterFactory : public eprosima::fastdds::dds::IContentFilterFactory {
+// One factory per process, registered on every participant (participant.cpp); never deleted through its
+// base (whose destructor Fast DDS leaves non-virtual).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wnon-virtual-dtor"
+class WorkerIdFilterFactory final : public eprosima::fastdds::dds::IContentFilterFactory {
  public:
   static WorkerIdFilterFactory& instance();
   ReturnCode_t create_content_filter(const char* filter_class_name, const char* type_name,
@@ -54,5 +57,6 @@ class WorkerIdFilterFactory : public eprosima::fastdds::dds::IContentFilterFacto
   ReturnCode_t delete_content_filter(const char* filter_class_name,
                                      eprosima::fastdds::dds::IContentFilter* filter_instance) override;
 };
+#pragma GCC diagnostic pop
 
 }  // namespace cpgmatch::dds
