@@ -15,7 +15,8 @@
 #   CPU ms/result   CPU of every benchmark process (discovery server, optimizer, workers, including the
 #                   killed ones up to their death) per result; the shared machine's other load is not in it
 #   opt CPU ms/result, opt RSS MB   the optimizer's
-#   lost            trials of the submitted budget not done when the row ended (must be 0)
+#   lost            trials of the submitted budget not done when the row ended (must be 0); a row that
+#                   hits ROW_TIMEOUT (default 300 s from its start) says how far it got instead
 #
 # Usage: [PROFILE=cluster.xml] [INITIAL=N] [ROW_TIMEOUT=s] [BENCH_DOMAIN=100] tests/bench/scale_out.sh [build-dir] [ROWS...]
 #   a row is WORKERS:SLOTS:STUDIES:BUDGET:DELAY_MS[:KILL]; INITIAL: random initial points per study
@@ -110,7 +111,8 @@ wall = max(r for _, r in rows) - min(i for i, _ in rows) if rows else float("nan
 tck = float(tck)
 print(f"| {w:>4} x {sl:<3} | {st:>2} x {b:<4} | {int(d)/1000:.1f} s | {kill:>4} | {disc:>8} | {wall:6.1f} | "
       f"{len(rows)/wall:8.1f} | {int(w)*int(sl)/(int(d)/1000):6.0f} | {int(dgrams)/n:7.1f} | "
-      f"{1000*int(all_t)/tck/n:7.1f} | {1000*int(opt_t)/tck/n:7.1f} | {rss:>5} | {int(total)-int(done_n):>4} |")
+      f"{1000*int(all_t)/tck/n:7.1f} | {1000*int(opt_t)/tck/n:7.1f} | {rss:>5} | "
+      + (f"{0:>4} |" if int(done_n) >= int(total) else f"not finished at ROW_TIMEOUT: {done_n} of {total} done |"))
 ' "$workers" "$slots" "$studies" "$budget" "$delay" "$killed" "$discover" "$total" "$done_n" \
       "$((udp1 - udp0))" "$opt_ticks" "$all_ticks" "$rss" "$tck"
 }

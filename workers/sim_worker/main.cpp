@@ -2,8 +2,8 @@
 //
 //   cpgmatch-sim-worker --domain 7 --slots 8 --id node12
 //
-// Announces itself (id, capacity, load) every heartbeat; reads the candidates on the domain and keeps
-// those assigned to it (worker_id, see worker_link.hpp); runs up to --slots rollouts at once, each in its
+// Announces itself (id, capacity, load) every heartbeat; receives the candidates addressed to it (the
+// optimizer's writer filters on worker_id, see worker_link.hpp); runs up to --slots rollouts at once, each in its
 // own process because Debian's ODE is not thread-safe; returns one report per candidate. On SIGTERM it
 // stops accepting, finishes the rollouts already running, hands back the queued ones (by leaving the
 // domain, which makes the optimizer re-issue them) and exits 0.

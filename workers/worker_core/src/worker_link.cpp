@@ -176,12 +176,18 @@ void WorkerLink::announce(bool accepting) {
 }
 
 std::chrono::milliseconds WorkerLink::rejoin_after(int attempt) {
-  // 10, 20, 40, 60, 60 ... s, each times a factor drawn from [0.5, 1.5): a fleet started in the same second
+  // 30, 60, 120, 120 ... s, each times a factor drawn from [0.5, 1.5): a fleet started in the same second
   // and silent for the same reason (an overloaded discovery server, ports taken) does not retry in step.
+  // Not sooner: 200 workers started at once on a loaded 2-core host took up to 2.5 min to be introduced,
+  // and workers that rebuilt after 5-15 s only added to the discovery server's work.
   static thread_local std::mt19937 random(std::random_device{}());
-  const double base_s = std::min(60.0, static_cast<double>(kOptimizerSilence.count()) * std::pow(2.0, attempt));
+  const double base_s = std::min(120.0, 3.0 * static_cast<double>(kOptimizerSilence.count()) * std::pow(2.0, attempt));
   return std::chrono::milliseconds(
       static_cast<long>(1000.0 * base_s * std::uniform_real_distribution<double>(0.5, 1.5)(random)));
+}
+
+bool WorkerLink::heard() const {
+  return endpoints_->reports.matched().count() > 0 && endpoints_->announcements.matched().count() > 0;
 }
 
 bool WorkerLink::rebuild() {
@@ -223,7 +229,11 @@ void WorkerLink::heartbeat_until(const std::function<bool()>& stop) {
   auto rejoin_wait = rejoin_after(0);  // drawn once per attempt: the silence a rebuild waits for
   auto rejoin_at = Clock::now() + rejoin_wait;
   while (!stop()) {
-    if (endpoints_->announcements.matched().count() > 0) {
+    // Heard: an optimizer's reports reader matched this worker (no other cpgmatch process reads reports)
+    // and its announcements reach a reader. Announcement readers alone may be `cpgmatch workers` or a
+    // dashboard: a worker the optimizer never matched (seen once in 200 started at once) but a polling
+    // client did would otherwise count itself heard and wait for ever.
+    if (heard()) {
       if (said_unheard) {
         spdlog::info("worker {}: an optimizer is on domain {} now{}", config_.worker_id, config_.domain,
                      rejoins > 0 ? fmt::format(" (after {} rebuilds of this worker's participant)", rejoins) : "");

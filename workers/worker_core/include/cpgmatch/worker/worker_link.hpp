@@ -43,7 +43,7 @@ struct WorkerLinkConfig {
   std::function<void(const domain::EmergencyStop&)> on_emergency_stop;
   // The objective version this worker computes (study::kObjectiveVersion), announced with every heartbeat.
   int objective_version = 0;
-  // No optimizer heard for a while (10 s, doubling to 60 s, each times a random factor in [0.5, 1.5)): leave
+  // No optimizer heard for a while (30 s, doubling to 120 s, each times a random factor in [0.5, 1.5)): leave
   // the domain and join again with a new participant, unless reports wait for acknowledgement in the old
   // one (heartbeat_until says what it tries). Off where others hold the participant (robot agent traces).
   bool rejoin_when_unheard = false;
@@ -102,6 +102,8 @@ class WorkerLink {
   static std::chrono::milliseconds rejoin_after(int attempt);
   // Replaces the participant and every endpoint; false (and the old ones kept) when that fails.
   bool rebuild();
+  // An optimizer hears this worker (see heartbeat_until).
+  bool heard() const;
 
   WorkerLinkConfig config_;
   CandidateQueue& queue_;
