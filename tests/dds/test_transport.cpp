@@ -11,6 +11,8 @@
 #include "cpgmatch/domain/report_json.hpp"
 #include "cpgmatch/dds/participant.hpp"
 #include "cpgmatch/dds/security.hpp"
+#include "cpgmatch/dds/worker_filter.hpp"
+#include "cpgmatch_msgsPubSubTypes.h"
 
 #include <openssl/evp.h>
 #include <openssl/x509.h>
@@ -68,6 +70,67 @@ TEST(Transport, ContentFilterDeliversOnlyTheWorkersOwnCandidates) {
     EXPECT_EQ(c.worker_id().to_string(), "a");
     EXPECT_EQ(from_wire(c.parameters()).at("hip_amplitude"), 0.4);
   }
+}
+
+TEST(Transport, WorkerFilterReadsTheSerializedWorkerId) {
+  // The filter reads the worker id at a fixed place in the CDR; the generated serializer decides that place.
+  msg::CandidatePubSubType type;
+  for (const std::string& id : std::vector<std::string>{"w", "node-17/slot", std::string(63, 'x')}) {
+    msg::Candidate c = candidate(12, id);
+    c.store_id(0x0123456789abcdefULL);
+    c.attempt(3);
+    eprosima::fastrtps::rtps::SerializedPayload_t payload(type.getSerializedSizeProvider(&c)());
+    ASSERT_TRUE(type.serialize(&c, &payload));
+    std::string read;
+    ASSERT_TRUE(candidate_worker_id(payload.data, payload.length, read)) << id;
+    EXPECT_EQ(read, id);
+    // Cut inside the id, or before it: not readable (the filter then lets the sample through).
+    const std::size_t cut = 24 + id.size() / 2;
+    EXPECT_FALSE(candidate_worker_id(payload.data, cut, read)) << id;
+    EXPECT_FALSE(candidate_worker_id(payload.data, 20, read));
+  }
+  std::string read;
+  EXPECT_FALSE(candidate_worker_id(nullptr, 0, read));  // a key-only sample's empty payload
+}
+
+TEST(Transport, WorkerIdFilterSendsEachWorkerItsOwnCandidatesAndDisposesOnly) {
+  Participant optimizer(ParticipantConfig::basic(35, "test-optimizer", true));
+  Participant worker_a(ParticipantConfig::basic(35, "test-worker-a", true));
+  Participant worker_b(ParticipantConfig::basic(35, "test-worker-b", true));
+  Inbox<msg::Candidate> got_a, got_b, gone_a, gone_b;
+  using To = Reader<msg::Candidate>::AddressedToWorker;
+  Reader<msg::Candidate> reader_a(
+      worker_a, To{"a"}, [&](const msg::Candidate& c) { got_a.push(c); },
+      [&](const msg::Candidate& key, InstanceGone g) { if (g.disposed) gone_a.push(key); });
+  Reader<msg::Candidate> reader_b(
+      worker_b, To{"b"}, [&](const msg::Candidate& c) { got_b.push(c); },
+      [&](const msg::Candidate& key, InstanceGone g) { if (g.disposed) gone_b.push(key); });
+  Writer<msg::Candidate> writer(optimizer);
+  ASSERT_TRUE(writer.matched().wait_for(2, 10s));
+  for (std::uint32_t i = 0; i < 6; ++i) ASSERT_TRUE(writer.write(candidate(i, i % 2 ? "b" : "a")));
+  ASSERT_TRUE(got_a.wait_for(3, 10s));
+  ASSERT_TRUE(got_b.wait_for(3, 10s));
+  // Trial 0 was a's; re-issued to b (same instance, as after a lost worker), then retired: the dispose is
+  // b's only. A key-only sample carries no worker id, so a reader-side filter could not tell: had the
+  // writer not filtered it, a (which knows the instance) would hear the dispose too.
+  msg::Candidate reissued = candidate(0, "b");
+  reissued.attempt(1);
+  ASSERT_TRUE(writer.write(reissued));
+  ASSERT_TRUE(got_b.wait_for(4, 10s));
+  ASSERT_TRUE(writer.unregister(reissued));
+  ASSERT_TRUE(writer.unregister(candidate(2, "a")));  // a's own: a hears it
+  ASSERT_TRUE(gone_b.wait_for(1, 10s));
+  ASSERT_TRUE(gone_a.wait_for(1, 10s));
+  std::this_thread::sleep_for(300ms);  // anything misaddressed would have arrived by now
+  std::scoped_lock lock(got_a.mutex, got_b.mutex, gone_a.mutex, gone_b.mutex);
+  ASSERT_EQ(got_a.samples.size(), 3u);
+  for (const auto& c : got_a.samples) EXPECT_EQ(c.worker_id().to_string(), "a");
+  ASSERT_EQ(got_b.samples.size(), 4u);
+  for (const auto& c : got_b.samples) EXPECT_EQ(c.worker_id().to_string(), "b");
+  ASSERT_EQ(gone_b.samples.size(), 1u);
+  EXPECT_EQ(gone_b.samples[0].trial_id(), 0u);
+  ASSERT_EQ(gone_a.samples.size(), 1u);
+  EXPECT_EQ(gone_a.samples[0].trial_id(), 2u);
 }
 
 TEST(Transport, LateReaderGetsTransientLocalStatePerInstance) {

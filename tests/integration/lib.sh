@@ -79,15 +79,17 @@ free_udp_port() {
 # ctest another process may take it before the server binds it (one run of 7 timed out after 60 s), so the
 # server must be seen holding its port before anyone uses it.
 server_holds_port() { ss -Hulpn "sport = :$DS_PORT" 2>/dev/null | grep -q "pid=$DS_PID,"; }
+# start_discovery_server [ID]: server id ID (default 0), which is its position in a client's server list.
 start_discovery_server() {
-  local attempt
+  local attempt id=${1:-0} log="$WORK/discovery.log"
+  ((id == 0)) || log="$WORK/discovery-$id.log"
   for attempt in 1 2 3; do
     DS_PORT=$(free_udp_port)
-    fast-discovery-server -i 0 -l 127.0.0.1 -p "$DS_PORT" >"$WORK/discovery.log" 2>&1 &
+    fast-discovery-server -i "$id" -l 127.0.0.1 -p "$DS_PORT" >"$log" 2>&1 &
     DS_PID=$!; PIDS+=("$DS_PID")
     if wait_until 5 server_holds_port; then return 0; fi
     echo "discovery server attempt $attempt: port $DS_PORT not held by it; another port" >&2
     kill "$DS_PID" 2>/dev/null || true
   done
-  fail "the discovery server never held its port: $(cat "$WORK/discovery.log")"
+  fail "the discovery server never held its port: $(cat "$log")"
 }

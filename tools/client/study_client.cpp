@@ -34,7 +34,7 @@ std::optional<nlohmann::json> json_of(const Wire& sample) {
 }  // namespace
 
 struct StudyClient::Impl {
-  Impl(int domain, bool localhost_only, bool read_trials)
+  Impl(int domain, bool localhost_only, bool read_trials, bool read_workers)
       : participant(dds::ParticipantConfig::basic(domain, "cpgmatch-cli", localhost_only)),
         client_id(fmt::format("cli-{}-{}", getpid(), std::random_device{}())) {
     state_reader = std::make_unique<dds::Reader<msg::StudyState>>(participant, [this](const msg::StudyState& s) {
@@ -42,7 +42,7 @@ struct StudyClient::Impl {
       if (auto j = json_of(s)) study_states[static_cast<int>(s.study_id())] = std::move(*j);
       ++revision;
     });
-    worker_reader = std::make_unique<dds::Reader<msg::WorkerAnnouncement>>(
+    if (read_workers) worker_reader = std::make_unique<dds::Reader<msg::WorkerAnnouncement>>(
         participant,
         [this](const msg::WorkerAnnouncement& w) {
           std::lock_guard<std::mutex> lock(mutex);
@@ -123,8 +123,8 @@ struct StudyClient::Impl {
   std::unique_ptr<dds::Reader<msg::TrialRecord>> trial_reader;
 };
 
-StudyClient::StudyClient(int domain, bool localhost_only, bool read_trials)
-    : impl_(std::make_unique<Impl>(domain, localhost_only, read_trials)) {}
+StudyClient::StudyClient(int domain, bool localhost_only, bool read_trials, bool read_workers)
+    : impl_(std::make_unique<Impl>(domain, localhost_only, read_trials, read_workers)) {}
 
 StudyClient::~StudyClient() {
   // Readers go before the state they write into.
@@ -179,11 +179,25 @@ bool StudyClient::wait_for_optimizer(double timeout_s, double settle_s) {
 }
 
 bool StudyClient::wait_for_workers(double timeout_s) {
+  using Clock = std::chrono::steady_clock;
+  if (!impl_->worker_reader) throw std::logic_error("StudyClient: made without read_workers");
   const auto& matched = impl_->worker_reader->matched();
+  const auto deadline = Clock::now() + std::chrono::milliseconds(static_cast<long>(timeout_s * 1000));
   if (!matched.wait_for(1, std::chrono::milliseconds(static_cast<long>(timeout_s * 1000)))) return false;
+  // A fleet is introduced a few workers at a time (a discovery server relays the endpoints in bursts): wait
+  // while the matches still grow, until none came for a second or the timeout.
+  int seen = matched.count();
+  auto last_growth = Clock::now();
+  while (Clock::now() < deadline && Clock::now() - last_growth < std::chrono::seconds(1)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (matched.count() > seen) {
+      seen = matched.count();
+      last_growth = Clock::now();
+    }
+  }
   // Workers announce every 0.5 s (WorkerLinkConfig::heartbeat_s): two periods hear every matched one.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(1500);
-  while (std::chrono::steady_clock::now() < deadline) {
+  const auto heard_deadline = Clock::now() + std::chrono::milliseconds(1500);
+  while (Clock::now() < heard_deadline) {
     {
       std::lock_guard<std::mutex> lock(impl_->mutex);
       if (static_cast<int>(impl_->live_workers.size()) >= matched.count()) return true;
@@ -191,6 +205,19 @@ bool StudyClient::wait_for_workers(double timeout_s) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   return true;
+}
+
+int StudyClient::matched_workers() const {
+  return impl_->worker_reader ? impl_->worker_reader->matched().count() : 0;
+}
+
+std::optional<int> StudyClient::optimizer_worker_count() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  std::optional<int> n;
+  for (const auto& [id, s] : impl_->study_states) {
+    if (s.contains("workers")) n = std::max(n.value_or(0), s["workers"].get<int>());
+  }
+  return n;
 }
 
 bool StudyClient::wait_for_study(int study_id, double timeout_s) {

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -23,8 +24,11 @@ struct CommandResult {
 
 class StudyClient {
  public:
-  // `read_trials`: also subscribe to trial records (the whole transient-local history).
-  StudyClient(int domain, bool localhost_only, bool read_trials = false);
+  // `read_trials`: also subscribe to trial records (the whole transient-local history). `read_workers`: to the
+  // workers' announcements (workers(), wait_for_workers()); a client that does not list workers leaves it
+  // off, since each worker's heartbeats would otherwise reach it too (a fleet of 80 cost a `study submit`
+  // about 800 datagrams, tests/bench/scale_out.sh).
+  StudyClient(int domain, bool localhost_only, bool read_trials = false, bool read_workers = true);
   ~StudyClient();
   StudyClient(const StudyClient&) = delete;
   StudyClient& operator=(const StudyClient&) = delete;
@@ -46,6 +50,10 @@ class StudyClient {
   // been heard (up to two heartbeat periods), so that `workers` lists every worker that heartbeats, not only
   // those whose announcement happened to arrive in time. False when no worker was found.
   bool wait_for_workers(double timeout_s);
+  // Workers whose announcement writer this client has matched (heard or not yet).
+  int matched_workers() const;
+  // The live workers the optimizer counts (its study states say so); nothing when no state arrived.
+  std::optional<int> optimizer_worker_count() const;
   // True once the state of `study_id` has arrived (transient-local history can lag the match).
   bool wait_for_study(int study_id, double timeout_s);
 

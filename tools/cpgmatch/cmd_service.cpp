@@ -37,9 +37,10 @@ std::string num(const json& v, const char* format = "{:.4g}") {
   return v.is_null() ? std::string("-") : fmt::format(fmt::runtime(format), v.get<double>());
 }
 
-client::StudyClient connect(const ServiceFlags& f, bool trials = false) {
+// Only `workers` reads the workers' announcements (see StudyClient).
+client::StudyClient connect(const ServiceFlags& f, bool trials = false, bool workers = false) {
   runtime::apply_dds_flags(f.dds);
-  return client::StudyClient(f.resolved_domain(), f.localhost_only, trials);
+  return client::StudyClient(f.resolved_domain(), f.localhost_only, trials, workers);
 }
 
 // Waits for an optimizer's state history (`settle_s` after it is heard); a clear error (exit 1) when none is
@@ -115,6 +116,47 @@ void add_service_flags(CLI::App* cmd, ServiceFlags& f, const std::string& defaul
 }
 
 bool is_terminal(const std::string& state) { return state == "done" || state == "failed" || state == "stopped"; }
+
+// `workers` lists what this client heard; on stderr (the list on stdout stays a list) it says when that
+// looks short of what is on the domain: a client on a crowded host or behind a busy discovery server can
+// hear part of a fleet, or nothing, and an empty list alone reads as "no workers".
+void say_if_discovery_incomplete(const client::StudyClient& c, const ServiceFlags& f, int listed) {
+  const int matched = c.matched_workers();
+  const std::optional<int> counted = c.optimizer_worker_count();
+  const int domain = f.resolved_domain();
+  if (counted && *counted > listed) {
+    fmt::print(stderr,
+               "cpgmatch workers: discovery looks incomplete: the optimizer counts {} live workers, this client heard "
+               "{} within {:g} s (a fleet still joining, a crowded host or a busy discovery server); run again or "
+               "give --timeout more\n",
+               *counted, listed, std::min(f.timeout_s, 5.0));
+  } else if (matched > listed) {
+    fmt::print(stderr, "cpgmatch workers: discovery looks incomplete: {} workers matched, {} heard so far\n", matched,
+               listed);
+  } else if (listed == 0) {
+    fmt::print(stderr,
+               "cpgmatch workers: no worker heard on DDS domain {} within {:g} s{}: none running, or not reachable "
+               "with this client's domain, --dds-profile and --discovery-server\n",
+               domain, std::min(f.timeout_s, 5.0),
+               counted ? fmt::format(" (the optimizer counts {} either)", *counted) : " and no optimizer heard");
+  }
+}
+
+// `status` without --study: says on stderr what an empty or workerless answer means.
+void say_what_status_lacks(const std::map<int, json>& states, const ServiceFlags& f) {
+  if (states.empty()) {
+    fmt::print(stderr, "cpgmatch status: the optimizer on DDS domain {} has no study (or its states have not "
+                       "arrived yet)\n", f.resolved_domain());
+    return;
+  }
+  for (const auto& [id, s] : states) {
+    if (s.value("state", "") == "running" && s.value("workers", 0) == 0) {
+      fmt::print(stderr, "cpgmatch status: study {} is running but the optimizer hears no worker: none started, or "
+                         "the workers have not found it yet (discovery; see `cpgmatch workers`)\n", id);
+      return;  // the workers count is the optimizer's, the same for every study
+    }
+  }
+}
 
 std::string progress_line(const json& s) {
   const int done = s["completed"].get<int>(), budget = s["budget"].get<int>();
@@ -210,6 +252,7 @@ void add_service_commands(CLI::App& app) {
         require_optimizer(c, o->service);
       }
       auto states = c.states();
+      if (o->study_id < 0) say_what_status_lacks(states, o->service);
       if (o->study_id >= 0) {
         const auto it = states.find(o->study_id);
         if (it == states.end()) throw InputError(fmt::format("--study: no study {}", o->study_id));
@@ -265,11 +308,12 @@ void add_service_commands(CLI::App& app) {
     cmd->add_flag("--json", o->json, "JSON array");
     add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
-      client::StudyClient c = connect(o->service);
+      client::StudyClient c = connect(o->service, false, /*workers=*/true);
       // Discovery takes a moment: wait for the workers themselves (not for an optimizer, which a worker list
       // does not need), or `workers` listed none of a worker that heartbeats in 3 of 26 tries.
       c.wait_for_workers(std::min(o->service.timeout_s, 5.0));
       const auto workers = c.workers();
+      say_if_discovery_incomplete(c, o->service, static_cast<int>(workers.size()));
       if (o->json) {
         json all = json::array();
         for (const auto& [id, w] : workers) all.push_back(w);

@@ -38,7 +38,7 @@ void add_steering_commands(CLI::App* study) {
     cmd->callback([o] {
       if (o->added <= 0) throw InputError(fmt::format("--budget: the trials to add must be > 0, got {}", o->added));
       runtime::apply_dds_flags(o->service.dds);
-      client::StudyClient c(o->service.resolved_domain(), o->service.localhost_only);
+      client::StudyClient c(o->service.resolved_domain(), o->service.localhost_only, false, /*read_workers=*/false);
       const client::CommandResult r = c.extend(o->study_id, o->added, o->service.timeout_s);
       if (!r.ok) throw InputError(r.message);  // unknown study, a failed one, ...
       fmt::print("{}\n", r.message);
@@ -66,7 +66,7 @@ void add_steering_commands(CLI::App* study) {
       std::vector<domain::EnqueuedGait> gaits;
       for (const auto& file : o->params) gaits.push_back(read_gait_file(file, file));
       runtime::apply_dds_flags(o->service.dds);
-      client::StudyClient c(o->service.resolved_domain(), o->service.localhost_only);
+      client::StudyClient c(o->service.resolved_domain(), o->service.localhost_only, false, /*read_workers=*/false);
       const client::CommandResult r = c.enqueue(o->study_id, gaits, o->service.timeout_s);
       if (!r.ok) throw InputError(r.message);  // a gait outside the space or a constraint, no room, ...
       fmt::print("{}\n", r.message);

@@ -2,8 +2,8 @@
 //
 //   cpgmatch-sim-worker --domain 7 --slots 8 --id node12
 //
-// Announces itself (id, capacity, load) every heartbeat; reads the candidates on the domain and keeps
-// those assigned to it (worker_id, see worker_link.hpp); runs up to --slots rollouts at once, each in its
+// Announces itself (id, capacity, load) every heartbeat; receives the candidates addressed to it (the
+// optimizer's writer filters on worker_id, see worker_link.hpp); runs up to --slots rollouts at once, each in its
 // own process because Debian's ODE is not thread-safe; returns one report per candidate. On SIGTERM it
 // stops accepting, finishes the rollouts already running, hands back the queued ones (by leaving the
 // domain, which makes the optimizer re-issue them) and exits 0.
@@ -52,6 +52,14 @@ std::string host_name() {
   return host;
 }
 
+WorkerLinkConfig link_config(const Options& o) {
+  WorkerLinkConfig c{o.domain, o.id, "cpgmatch-sim-worker " + o.id, o.localhost_only, domain::WorkerKind::kSimulation,
+                     static_cast<std::uint32_t>(o.slots), o.heartbeat_s, host_name(), {}, o.objective_version};
+  // A worker that hears no optimizer joins again by itself (a fleet started at once, a lost discovery).
+  c.rejoin_when_unheard = true;
+  return c;
+}
+
 // The DDS side (candidates, reports kept until acknowledged, heartbeats) is the WorkerLink every worker
 // shares; what is this worker's own is running each candidate in a slot process.
 class SimWorker {
@@ -59,10 +67,7 @@ class SimWorker {
   explicit SimWorker(const Options& o)
       : options_(o),
         queue_(o.id),
-        link_(WorkerLinkConfig{o.domain, o.id, "cpgmatch-sim-worker " + o.id, o.localhost_only, domain::WorkerKind::kSimulation,
-                               static_cast<std::uint32_t>(o.slots), o.heartbeat_s, host_name(), {},
-                               o.objective_version},
-              queue_),
+        link_(link_config(o), queue_),
         specs_(link_, o.objective_version) {
     slot_options_.worker_id = o.id;
     slot_options_.find_spec = [this](std::uint64_t key) { return specs_.find(key); };

@@ -14,6 +14,7 @@
 #include "cpgmatch/dds/profile.hpp"
 #include "cpgmatch/dds/shm_cleanup.hpp"
 #include "cpgmatch/dds/security.hpp"
+#include "cpgmatch/dds/worker_filter.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch_msgsPubSubTypes.h"
 #include "cpgmatch_msgsTypeObject.h"
@@ -108,6 +109,12 @@ Participant::Participant(const ParticipantConfig& config) : domain_(config.domai
   if (participant_ == nullptr) {
     throw std::runtime_error(fmt::format("DDS: cannot create a participant on domain {}", config.domain));
   }
+  // Before any writer: a writer filters for a reader only when its own participant knows the reader's
+  // filter class when they match (worker_filter.hpp).
+  if (participant_->register_content_filter_factory(kWorkerIdFilterClass, &WorkerIdFilterFactory::instance()) !=
+      ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("DDS: cannot register the worker-id content filter");
+  }
   publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
   if (publisher_ == nullptr || subscriber_ == nullptr) throw std::runtime_error("DDS: cannot create publisher/subscriber");
@@ -158,6 +165,7 @@ std::optional<std::string> Participant::identity_of(const eprosima::fastrtps::rt
 Participant::~Participant() {
   if (participant_ == nullptr) return;
   participant_->delete_contained_entities();
+  participant_->unregister_content_filter_factory(kWorkerIdFilterClass);
   fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
 }
 
@@ -182,10 +190,13 @@ fdds::Topic* Participant::topic(TopicId id) {
 
 fdds::ContentFilteredTopic* Participant::filtered_topic(TopicId id, const std::string& name,
                                                         const std::string& expression,
-                                                        const std::vector<std::string>& parameters) {
+                                                        const std::vector<std::string>& parameters,
+                                                        const char* filter_class) {
   fdds::Topic* base = topic(id);
   std::lock_guard<std::mutex> lock(mutex_);
-  fdds::ContentFilteredTopic* t = participant_->create_contentfilteredtopic(name, base, expression, parameters);
+  fdds::ContentFilteredTopic* t =
+      filter_class == nullptr ? participant_->create_contentfilteredtopic(name, base, expression, parameters)
+                              : participant_->create_contentfilteredtopic(name, base, expression, parameters, filter_class);
   if (t == nullptr) {
     throw std::runtime_error(fmt::format("DDS: cannot create content filter '{}' on {}", expression, topic_info(id).name));
   }

@@ -1,5 +1,6 @@
 #include "cpgmatch/dds/topics.hpp"
 
+#include <limits>
 #include <stdexcept>
 
 namespace cpgmatch::dds {
@@ -74,16 +75,22 @@ dds::DataWriterQos writer_qos(TopicId id) {
   // unregister_instance() also disposes (the default), so finished trials free the writer's memory.
   qos.writer_data_lifecycle().autodispose_unregistered_instances = true;
   if (id == TopicId::kWorkers) {
-    qos.liveliness().kind = dds::AUTOMATIC_LIVELINESS_QOS;
+    // Alive while it announces: every announcement (each heartbeat_s, 0.5 s) asserts the writer's liveliness,
+    // so no separate assertion travels. AUTOMATIC liveliness sent one more datagram (and its acknowledgement)
+    // from every worker to the optimizer and to each discovery server, every quarter lease: 4 of a resting
+    // worker's 10 datagrams a second (tests/bench/scale_out.sh, docs/dds.md). Readers that request AUTOMATIC
+    // (cpgmatch's, other vendors' by default) still match: MANUAL_BY_TOPIC is the stronger offer.
+    qos.liveliness().kind = dds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
     qos.liveliness().lease_duration = eprosima::fastrtps::Duration_t(kWorkerLivelinessLease_s);
-    qos.liveliness().announcement_period = eprosima::fastrtps::Duration_t(kWorkerLivelinessLease_s / 4);
   }
   if (id == TopicId::kCandidates) {
-    // Workers filter their candidates themselves (reader side). Writer-side filtering evaluated every
-    // worker's DDS-SQL filter on the optimizer's event thread for each candidate, and each unregister
-    // (a key-only sample the filter cannot read) cost an exception per filtered reader: a quarter of
-    // the event thread's time at 20 studies on 8 workers (perf), and loop latencies of 100+ ms.
-    qos.writer_resource_limits().reader_filters_allocation = eprosima::fastrtps::ResourceLimitedContainerConfig(0, 0, 0);
+    // Each worker's reader filters on its worker id with cpgmatch's own filter class (worker_filter.hpp),
+    // which this writer evaluates before sending: a candidate goes to its worker only. Fast DDS evaluates
+    // at most 32 readers' filters by default and sends to the others unfiltered; no limit here. (Each
+    // sample then carries every filtered reader's 16-byte signature in its inline QoS: 1.3 kB at 80
+    // workers, 16 kB at 1,000; Fast DDS stops filtering past about 4,000, see docs/dds.md.)
+    qos.writer_resource_limits().reader_filters_allocation =
+        eprosima::fastrtps::ResourceLimitedContainerConfig(0, std::numeric_limits<std::size_t>::max(), 1);
   }
   if (id == TopicId::kRolloutTraces) {
     // A trace is a burst of 50 kB chunks; one the reader's socket dropped is repaired at the next

@@ -4,7 +4,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <random>
 #include <thread>
+#include <utility>
+
+#include <fmt/format.h>
 
 #include <spdlog/spdlog.h>
 
@@ -12,55 +17,79 @@
 
 namespace cpgmatch::worker {
 
-WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
-    : config_(config),
-      queue_(queue),
-      participant_([&] {
-        dds::ParticipantConfig c;
-        c.domain = config.domain;
-        c.name = config.participant_name;
-        c.localhost_only = config.localhost_only;
-        return c;
-      }()),
-      reports_(participant_),
-      announcements_(participant_),
-      candidates_(
-          participant_,
-          [this](const msg::Candidate& wire) {
-            // Every candidate on the domain arrives here: look at the worker id before converting anything.
-            if (wire.worker_id() != config_.worker_id) return;
-            domain::Candidate c;
-            try {
-              c = dds::from_wire(wire);
-            } catch (const dds::WireError& e) {
-              return answer_malformed(wire, e.what());
-            }
-            const CandidateQueue::Offer offer = queue_.offer(c);
-            spdlog::debug("worker {}: candidate study {} trial {} attempt {}: {}", config_.worker_id, c.id.study_id,
-                          c.id.trial_id, c.id.attempt, CandidateQueue::to_string(offer));
-          },
-          [this](const msg::Candidate& key, dds::InstanceGone gone) {
-            if (gone.disposed) acknowledged(key);  // not on a lost optimizer: its successor needs the reports
-          }),
-      spec_reader_(participant_, [this](const msg::StudySpecSample& sample) {
-        // Kept as received; whoever uses it checks the hash and the version (SpecBook).
-        std::lock_guard<std::mutex> lock(specs_mutex_);
-        const bool is_new = specs_.count(sample.spec_key()) == 0;
-        specs_[sample.spec_key()] = dds::from_wire(sample);
-        if (is_new) {
-          spec_order_.push_back(sample.spec_key());
-          if (spec_order_.size() > kMaxSpecs) {
-            specs_.erase(spec_order_.front());
-            spec_order_.pop_front();
-          }
-        }
-        spec_arrived_.notify_all();
-      }) {
-  if (config_.on_emergency_stop) {
-    stops_ = std::make_unique<dds::Reader<msg::EmergencyStop>>(
-        participant_, [this](const msg::EmergencyStop& s) { config_.on_emergency_stop(dds::from_wire(s)); });
+// Everything this worker has on the domain: built whole, and replaced whole by rebuild().
+struct WorkerLink::Endpoints {
+  Endpoints(WorkerLink& link, const WorkerLinkConfig& config)
+      : participant([&] {
+          dds::ParticipantConfig c;
+          c.domain = config.domain;
+          c.name = config.participant_name;
+          c.localhost_only = config.localhost_only;
+          return c;
+        }()),
+        reports(participant),
+        announcements(participant),
+        candidates(
+            participant, dds::Reader<msg::Candidate>::AddressedToWorker{config.worker_id},
+            [&link](const msg::Candidate& wire) { link.received(wire); },
+            [&link](const msg::Candidate& key, dds::InstanceGone gone) {
+              if (gone.disposed) link.acknowledged(key);  // not on a lost optimizer: its successor needs the reports
+            }),
+        specs(participant, [&link](const msg::StudySpecSample& sample) { link.received(sample); }) {
+    if (config.on_emergency_stop) {
+      stops = std::make_unique<dds::Reader<msg::EmergencyStop>>(
+          participant, [&config](const msg::EmergencyStop& s) { config.on_emergency_stop(dds::from_wire(s)); });
+    }
   }
+  dds::Participant participant;
+  dds::Writer<msg::RolloutReport> reports;
+  dds::Writer<msg::WorkerAnnouncement> announcements;
+  // Last: the readers' callbacks use the writers, so they must be created after and destroyed first.
+  // The candidates addressed to this worker and their disposes (the optimizer's acknowledgement of a
+  // report), filtered on the optimizer's side by worker id (worker_filter.hpp, docs/dds.md): what a worker
+  // receives does not grow with the fleet.
+  dds::Reader<msg::Candidate> candidates;
+  dds::Reader<msg::StudySpecSample> specs;
+  std::unique_ptr<dds::Reader<msg::EmergencyStop>> stops;
+};
+
+WorkerLink::WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue)
+    : config_(config), queue_(queue), endpoints_(std::make_unique<Endpoints>(*this, config_)) {}
+
+WorkerLink::~WorkerLink() = default;
+
+void WorkerLink::received(const msg::Candidate& wire) {
+  // The optimizer's writer filters on the worker id (worker_filter.hpp); a writer that does not know the
+  // filter class (another vendor's) sends everything, and Fast DDS filters in this reader then. Checked
+  // once more before converting anything: the filter passes what it cannot read.
+  if (wire.worker_id() != config_.worker_id) return;
+  domain::Candidate c;
+  try {
+    c = dds::from_wire(wire);
+  } catch (const dds::WireError& e) {
+    return answer_malformed(wire, e.what());
+  }
+  const CandidateQueue::Offer offer = queue_.offer(c);
+  spdlog::debug("worker {}: candidate study {} trial {} attempt {}: {}", config_.worker_id, c.id.study_id,
+                c.id.trial_id, c.id.attempt, CandidateQueue::to_string(offer));
 }
+
+void WorkerLink::received(const msg::StudySpecSample& sample) {
+  // Kept as received; whoever uses it checks the hash and the version (SpecBook).
+  std::lock_guard<std::mutex> lock(specs_mutex_);
+  const bool is_new = specs_.count(sample.spec_key()) == 0;
+  specs_[sample.spec_key()] = dds::from_wire(sample);
+  if (is_new) {
+    spec_order_.push_back(sample.spec_key());
+    if (spec_order_.size() > kMaxSpecs) {
+      specs_.erase(spec_order_.front());
+      spec_order_.pop_front();
+    }
+  }
+  spec_arrived_.notify_all();
+}
+
+dds::Participant& WorkerLink::participant() { return endpoints_->participant; }
 
 namespace {
 
@@ -77,12 +106,12 @@ msg::RolloutReport report_key(const domain::AttemptId& id) {
 
 bool WorkerLink::publish(const domain::RolloutReport& report) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const bool written = reports_.write(dds::to_wire(report));
+  const bool written = endpoints_->reports.write(dds::to_wire(report));
   spdlog::debug("worker {}: report study {} trial {} attempt {} written ({}, cost {})", config_.worker_id,
                 report.id.study_id, report.id.trial_id, report.id.attempt, domain::to_string(report.outcome),
                 report.summary.cost);
   if (!written) spdlog::error("study {} trial {}: report write failed", report.id.study_id, report.id.trial_id);
-  for (const auto& old : kept_.keep(report.id)) reports_.unregister(report_key(old));
+  for (const auto& old : kept_.keep(report.id)) endpoints_->reports.unregister(report_key(old));
   return written;
 }
 
@@ -91,7 +120,7 @@ void WorkerLink::acknowledged(const msg::Candidate& key) {
   const std::optional<domain::AttemptId> id = dds::attempt_of(key);
   if (!id) return;
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const auto report = kept_.acknowledge(*id)) reports_.unregister(report_key(*report));
+  if (const auto report = kept_.acknowledge(*id)) endpoints_->reports.unregister(report_key(*report));
 }
 
 void WorkerLink::answer_malformed(const msg::Candidate& c, const std::string& why) {
@@ -143,29 +172,113 @@ void WorkerLink::announce(bool accepting) {
   a.busy = static_cast<int>(load.busy);
   a.completed = load.completed;
   last_announcement_ = dds::to_wire(a);
-  announcements_.write(last_announcement_);
+  endpoints_->announcements.write(last_announcement_);
+}
+
+std::chrono::milliseconds WorkerLink::rejoin_after(int attempt) {
+  // 30, 60, 120, 120 ... s, each times a factor drawn from [0.5, 1.5): a fleet started in the same second
+  // and silent for the same reason (an overloaded discovery server, ports taken) does not retry in step.
+  // Not sooner: 200 workers started at once on a loaded 2-core host took up to 2.5 min to be introduced,
+  // and workers that rebuilt after 5-15 s only added to the discovery server's work.
+  static thread_local std::mt19937 random(std::random_device{}());
+  const double base_s = std::min(120.0, 3.0 * static_cast<double>(kOptimizerSilence.count()) * std::pow(2.0, attempt));
+  return std::chrono::milliseconds(
+      static_cast<long>(1000.0 * base_s * std::uniform_real_distribution<double>(0.5, 1.5)(random)));
+}
+
+bool WorkerLink::heard() const {
+  return endpoints_->reports.matched().count() > 0 && endpoints_->announcements.matched().count() > 0;
+}
+
+bool WorkerLink::rebuild() {
+  // A new participant first (its readers may deliver at once), then the swap under both locks, then the
+  // old one goes outside them: its listeners may be inside a callback that waits for one of those locks.
+  std::unique_ptr<Endpoints> fresh;
+  try {
+    fresh = std::make_unique<Endpoints>(*this, config_);
+  } catch (const std::exception& e) {
+    spdlog::warn("worker {}: rebuilding the DDS participant failed: {}; keeping the old one", config_.worker_id,
+                 e.what());
+    return false;
+  }
+  std::unique_ptr<Endpoints> old;
+  {
+    std::scoped_lock lock(mutex_, announce_mutex_);
+    old = std::exchange(endpoints_, std::move(fresh));
+  }
+  old.reset();
+  return true;
 }
 
 void WorkerLink::heartbeat_until(const std::function<bool()>& stop) {
   using Clock = std::chrono::steady_clock;
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.heartbeat_s));
+  // The announcements are what keeps this worker alive for DDS (MANUAL_BY_TOPIC liveliness, topics.cpp):
+  // at least two in every lease, whatever --heartbeat says.
+  const auto period = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(std::min(config_.heartbeat_s, dds::kWorkerLivelinessLease_s / 2)));
   auto next = Clock::now();
   bool announced_accepting = true;
   // The optimizer reads the announcements: no reader matched for a while means none on this domain (not
-  // started, or started on another domain, or a DDS-Security mismatch). Said in the log, once per silence.
+  // started, another domain, a DDS-Security mismatch) or a discovery that went wrong (a discovery server
+  // that lost this participant or never answered it, ports taken on a crowded host). Said in the log, once
+  // per silence; with rejoin_when_unheard the worker then rebuilds its participant, after a jittered wait.
   auto last_heard = Clock::now();
   bool said_unheard = false;
+  bool heard_since_built = false;
+  int rejoins = 0;
+  auto rejoin_wait = rejoin_after(0);  // drawn once per attempt: the silence a rebuild waits for
+  auto rejoin_at = Clock::now() + rejoin_wait;
   while (!stop()) {
-    if (announcements_.matched().count() > 0) {
-      if (said_unheard) spdlog::info("worker {}: an optimizer is on domain {} now", config_.worker_id, config_.domain);
+    // Heard: an optimizer's reports reader matched this worker (no other cpgmatch process reads reports)
+    // and its announcements reach a reader. Announcement readers alone may be `cpgmatch workers` or a
+    // dashboard: a worker the optimizer never matched (seen once in 200 started at once) but a polling
+    // client did would otherwise count itself heard and wait for ever.
+    if (heard()) {
+      if (said_unheard) {
+        spdlog::info("worker {}: an optimizer is on domain {} now{}", config_.worker_id, config_.domain,
+                     rejoins > 0 ? fmt::format(" (after {} rebuilds of this worker's participant)", rejoins) : "");
+      }
       last_heard = Clock::now();
+      rejoin_at = last_heard + rejoin_wait;
       said_unheard = false;
-    } else if (!said_unheard && Clock::now() - last_heard > kOptimizerSilence) {
-      spdlog::warn("worker {}: no optimizer on DDS domain {} for {} s (none running, another domain, or its "
-                   "security settings do not match this worker's)",
-                   config_.worker_id, config_.domain,
-                   std::chrono::duration_cast<std::chrono::seconds>(kOptimizerSilence).count());
-      said_unheard = true;
+      heard_since_built = true;
+    } else {
+      const auto silent = Clock::now() - last_heard;
+      if (!said_unheard && silent > kOptimizerSilence) {
+        spdlog::warn("worker {}: no optimizer on DDS domain {} for {} s (none running, another domain, its security "
+                     "settings do not match this worker's, or discovery went wrong){}",
+                     config_.worker_id, config_.domain,
+                     std::chrono::duration_cast<std::chrono::seconds>(silent).count(),
+                     config_.rejoin_when_unheard ? "; will rebuild this worker's DDS participant" : "");
+        said_unheard = true;
+      }
+      if (config_.rejoin_when_unheard && Clock::now() >= rejoin_at) {
+        std::size_t unacknowledged = 0;
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          unacknowledged = kept_.size();
+        }
+        // Reports not yet acknowledged live in the old writer's history, which a successor optimizer reads
+        // when it comes: a worker that was heard once and holds any keeps its participant.
+        if (heard_since_built && unacknowledged > 0) {
+          spdlog::info("worker {}: keeps its DDS participant: {} reports wait there for the next optimizer",
+                       config_.worker_id, unacknowledged);
+          rejoin_at = Clock::now() + rejoin_wait;
+        } else {
+          const auto wait = rejoin_after(rejoins + 1);
+          spdlog::warn("worker {}: no optimizer heard for {} s: rebuilding its DDS participant (attempt {}; next "
+                       "attempt in {:.0f} s if still unheard)",
+                       config_.worker_id, std::chrono::duration_cast<std::chrono::seconds>(silent).count(),
+                       rejoins + 1, std::chrono::duration<double>(wait).count());
+          if (rebuild()) {
+            ++rejoins;
+            heard_since_built = false;
+            next = Clock::now();  // announce at once on the new participant
+          }
+          rejoin_wait = wait;
+          rejoin_at = Clock::now() + wait;
+        }
+      }
     }
     const bool accepting = accepting_;
     if (Clock::now() >= next || accepting != announced_accepting) {
@@ -186,11 +299,11 @@ void WorkerLink::leave() {
   // Reliable delivery of the last reports needs a moment before the writer goes away.
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   std::lock_guard<std::mutex> lock(announce_mutex_);
-  announcements_.unregister(last_announcement_);
+  endpoints_->announcements.unregister(last_announcement_);
   // The unregister is the worker's goodbye (the optimizer logs a clean leave for it, and re-issues at once);
   // a participant deleted before the optimizer acknowledged it sometimes lost it, and the worker was then
   // declared silent 2.5 s later (integration.two_workers, 1 run in about 20 under a full ctest -j2).
-  announcements_.wait_for_acknowledgments(std::chrono::milliseconds(1000));
+  endpoints_->announcements.wait_for_acknowledgments(std::chrono::milliseconds(1000));
 }
 
 }  // namespace cpgmatch::worker

@@ -17,6 +17,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -33,6 +34,7 @@
 #include <fastdds/dds/topic/Topic.hpp>
 
 #include "cpgmatch/dds/topics.hpp"
+#include "cpgmatch/dds/worker_filter.hpp"
 
 namespace cpgmatch::dds {
 
@@ -78,10 +80,12 @@ class Participant {
   Participant& operator=(const Participant&) = delete;
 
   eprosima::fastdds::dds::Topic* topic(TopicId id);
-  // A reader-side filter on `id`, e.g. ("worker_id = %0", {"'w1'"}). One per (topic, name).
+  // A content filter on `id`, e.g. ("worker_id = %0", {"'w1'"}) in DDS-SQL (filter_class null), or a
+  // custom filter class registered on every participant (worker_filter.hpp). One per (topic, name).
   eprosima::fastdds::dds::ContentFilteredTopic* filtered_topic(TopicId id, const std::string& name,
                                                                const std::string& expression,
-                                                               const std::vector<std::string>& parameters);
+                                                               const std::vector<std::string>& parameters,
+                                                               const char* filter_class = nullptr);
   eprosima::fastdds::dds::Publisher* publisher() { return publisher_; }
   eprosima::fastdds::dds::Subscriber* subscriber() { return subscriber_; }
   int domain() const { return domain_; }
@@ -144,6 +148,13 @@ class Writer {
   bool write(const T& sample) { return writer_->write(const_cast<T*>(&sample)); }
   // Removes the instance with `sample`'s key from the writer (and disposes it for readers).
   bool unregister(const T& sample) {
+    // A candidate's dispose goes to the worker it was addressed to only (worker_filter.hpp).
+    std::string addressee;
+    std::optional<AddressedTo> to;  // destroyed before `addressee`, which it points to
+    if constexpr (std::is_same_v<T, msg::Candidate>) {
+      addressee = sample.worker_id().to_string();
+      to.emplace(addressee);
+    }
     return writer_->unregister_instance(const_cast<T*>(&sample), eprosima::fastrtps::rtps::InstanceHandle_t()) ==
            ReturnCode_OK();
   }
@@ -205,6 +216,19 @@ class Reader {
       : participant_(p), listener_(std::move(on_sample), std::move(on_gone)) {
     reader_ = detail::create_reader(p, p.filtered_topic(TopicOf<T>::id, filter_name, expression, parameters),
                                     TopicOf<T>::id, &listener_);
+  }
+  // Reads only the candidates addressed to `worker_id` (and their disposes), filtered by the writer where
+  // it knows the filter class (every cpgmatch participant does, worker_filter.hpp).
+  struct AddressedToWorker {
+    std::string worker_id;
+  };
+  Reader(Participant& p, const AddressedToWorker& to, OnSample on_sample, OnGone on_gone = {})
+      : participant_(p), listener_(std::move(on_sample), std::move(on_gone)) {
+    static_assert(std::is_same_v<T, msg::Candidate>, "the worker-id filter reads candidates only");
+    reader_ = detail::create_reader(
+        p, p.filtered_topic(TopicOf<T>::id, "cpgmatch/candidates/" + to.worker_id, kWorkerIdFilterExpression,
+                            {to.worker_id}, kWorkerIdFilterClass),
+        TopicOf<T>::id, &listener_);
   }
   ~Reader() { detail::delete_reader(participant_, reader_); }
   Reader(const Reader&) = delete;

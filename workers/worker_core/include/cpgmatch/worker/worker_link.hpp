@@ -43,6 +43,10 @@ struct WorkerLinkConfig {
   std::function<void(const domain::EmergencyStop&)> on_emergency_stop;
   // The objective version this worker computes (study::kObjectiveVersion), announced with every heartbeat.
   int objective_version = 0;
+  // No optimizer heard for a while (30 s, doubling to 120 s, each times a random factor in [0.5, 1.5)): leave
+  // the domain and join again with a new participant, unless reports wait for acknowledgement in the old
+  // one (heartbeat_until says what it tries). Off where others hold the participant (robot agent traces).
+  bool rejoin_when_unheard = false;
 };
 
 // A study spec as received on cpgmatch/study_specs (study_spec.hpp says what is in it), not yet checked.
@@ -52,6 +56,7 @@ class WorkerLink {
  public:
   // Joins the domain; candidates start arriving in `queue` at once.
   WorkerLink(const WorkerLinkConfig& config, CandidateQueue& queue);
+  ~WorkerLink();
   WorkerLink(const WorkerLink&) = delete;
   WorkerLink& operator=(const WorkerLink&) = delete;
 
@@ -70,30 +75,38 @@ class WorkerLink {
   // on two topics, so the candidate can come first); nothing when it did not arrive in time.
   std::optional<ReceivedSpec> spec(std::uint64_t key, std::chrono::milliseconds wait);
 
-  // How long a worker hears no optimizer before it says so in its log.
+  // How long a worker hears no optimizer before it says so in its log (and, with rejoin_when_unheard,
+  // about how long before its first rebuild).
   static constexpr std::chrono::seconds kOptimizerSilence{10};
   // Announces every heartbeat period until `stop` returns true (checked every 50 ms, so a signal is
-  // acted on quickly), then once more as not accepting.
+  // acted on quickly), then once more as not accepting. Rebuilds the participant when unheard (config).
   void heartbeat_until(const std::function<bool()>& stop);
 
-  // The link's participant, for a worker's own topics (the robot agent's rollout traces).
-  dds::Participant& participant() { return participant_; }
+  // The link's participant, for a worker's own topics (the robot agent's rollout traces). Valid for the
+  // link's life only without rejoin_when_unheard.
+  dds::Participant& participant();
 
   // After the rollouts have ended: gives reliable delivery of the last reports a moment, then leaves the
   // workers topic (the optimizer re-issues whatever was still assigned to this worker).
   void leave();
 
  private:
+  struct Endpoints;
+  void received(const msg::Candidate& wire);
+  void received(const msg::StudySpecSample& sample);
   void acknowledged(const msg::Candidate& key);
   // A candidate addressed to this worker that the domain cannot hold (a parameter named twice): answered
   // with an error report, so the optimizer learns at once instead of at the lease's end.
   void answer_malformed(const msg::Candidate& c, const std::string& why);
+  // How long the `attempt`-th rebuild waits for an optimizer first (jittered).
+  static std::chrono::milliseconds rejoin_after(int attempt);
+  // Replaces the participant and every endpoint; false (and the old ones kept) when that fails.
+  bool rebuild();
+  // An optimizer hears this worker (see heartbeat_until).
+  bool heard() const;
 
   WorkerLinkConfig config_;
   CandidateQueue& queue_;
-  dds::Participant participant_;
-  dds::Writer<msg::RolloutReport> reports_;
-  dds::Writer<msg::WorkerAnnouncement> announcements_;
   std::mutex mutex_;  // the report writer and `kept_`: a dispose may arrive while a report is written
   KeptReports kept_;
   msg::WorkerAnnouncement last_announcement_;
@@ -107,15 +120,8 @@ class WorkerLink {
   std::map<std::uint64_t, ReceivedSpec> specs_;
   std::deque<std::uint64_t> spec_order_;
   // Last: the readers' callbacks use everything above, so they must be created after and destroyed first.
-  // Every candidate on the domain and every dispose (the optimizer's acknowledgement of a report); the
-  // queue keeps only this worker's candidates. Why not a DDS content filter on worker_id: the optimizer
-  // filters nothing on its side (see topics.cpp), so every candidate reaches every worker anyway, and
-  // Fast DDS evaluated the filter through DynamicData and threw an exception for every key-only
-  // dispose: a filtered reader plus the unfiltered one that disposes need cost the workers twice the CPU
-  // of this one reader (tests/bench/proposal_throughput.sh, docs/dds.md).
-  dds::Reader<msg::Candidate> candidates_;
-  std::unique_ptr<dds::Reader<msg::EmergencyStop>> stops_;
-  dds::Reader<msg::StudySpecSample> spec_reader_;
+  // Replaced only by the heartbeat thread (rebuild), under mutex_ and announce_mutex_.
+  std::unique_ptr<Endpoints> endpoints_;
 };
 
 }  // namespace cpgmatch::worker
