@@ -19,6 +19,7 @@
 #include "cpgmatch/study/model_file.hpp"
 #include "cpgmatch/study/study_config.hpp"
 #include "commands.hpp"
+#include "flag_checks.hpp"
 #include "gait_files.hpp"
 #include "cpgmatch/study/study_spec.hpp"
 #include "cpgmatch/text.hpp"
@@ -178,7 +179,7 @@ void add_study_service_commands(CLI::App* study) {
     };
     auto o = std::make_shared<Options>();
     CLI::App* cmd = study->add_subcommand(kind, fmt::format("{} a study on the optimizer service", kind));
-    cmd->add_option("id", o->study_id, "study id")->required();
+    cmd->add_option("id", o->study_id, "study id")->required()->check(study_id());
     add_service_flags(cmd, o->service, "operator");
     const std::string k = kind;
     cmd->callback([o, k] {
@@ -199,7 +200,7 @@ void add_service_commands(CLI::App& app) {
     };
     auto o = std::make_shared<Options>();
     CLI::App* cmd = app.add_subcommand("status", "studies on the optimizer service");
-    cmd->add_option("--study", o->study_id, "only this study");
+    cmd->add_option("--study", o->study_id, "only this study")->check(study_id());
     cmd->add_flag("--json", o->json, "JSON: one object with --study, else an array");
     add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
@@ -233,7 +234,7 @@ void add_service_commands(CLI::App& app) {
     };
     auto o = std::make_shared<Options>();
     CLI::App* cmd = app.add_subcommand("watch", "stream study progress until the studies finish (Ctrl-C to leave)");
-    cmd->add_option("--study", o->study_id, "only this study");
+    cmd->add_option("--study", o->study_id, "only this study")->check(study_id());
     add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
