@@ -11,7 +11,7 @@ wait_until 10 grep -q "http://" "$WORK/dashboard.out" || fail "the dashboard pri
 url=$(grep -o 'http://[^ ]*' "$WORK/dashboard.out")
 
 start_optimizer "$WORK/s.db"
-start_worker w1 --fake-rollout-ms 40 --slots 2
+start_worker w1 --fake-rollout-ms 100 --slots 2
 
 # "id state" lines, sorted, from each side.
 from_status() {
@@ -36,25 +36,27 @@ agree() {  # agree WHAT: both sides list the same studies in the same states
   fail "$1: status says [$(echo "$a" | tr '\n' ',')], the dashboard [$(echo "$b" | tr '\n' ',')]"
 }
 
-write_study "$WORK/a.yaml" first 120 6
+write_study "$WORK/a.yaml" first 200 6
 write_study "$WORK/b.yaml" second 12 4
 id_a=$(cli study submit --config "$WORK/a.yaml" --timeout 20) || fail "submit a"
 id_b=$(cli study submit --config "$WORK/b.yaml" --timeout 20) || fail "submit b"
 wait_until 30 completed_at_least "$id_a" 3 || fail "study a did not start"
 agree "during two studies"
+[[ $(from_status) == *running* ]] || fail "not during: no study was running any more ($(from_status | tr '\n' ','))"
 wait_until 60 study_is "$id_b" done || fail "study b did not finish"
 agree "right after study $id_b finished"
 
 # A refused study (constraints that leave nothing feasible): exit 2 naming file:line, nothing stored or shown.
 cat >"$WORK/bad.yaml" <<YAML
 name: infeasible
-budget: 10
+budget: 30
 constraints:
   - "hip_offset >= 100"
 YAML
 before=$(sql "$WORK/s.db" "select count(*) from studies")
 rc=0
-cli study submit --config "$WORK/bad.yaml" --timeout 20 >/dev/null 2>"$WORK/bad.err" || rc=$?
+"$BIN/cpgmatch" study submit --config "$WORK/bad.yaml" --domain "$DOMAIN" --localhost-only --timeout 20 >/dev/null \
+  2>"$WORK/bad.err" || rc=$?
 ((rc == 2)) || fail "the infeasible study exited $rc, not 2: $(cat "$WORK/bad.err")"
 grep -q "bad.yaml:4" "$WORK/bad.err" || fail "the refusal names no file:line: $(cat "$WORK/bad.err")"
 [[ $(sql "$WORK/s.db" "select count(*) from studies") == "$before" ]] || fail "the refused study was stored"
@@ -62,7 +64,7 @@ agree "after a refused submit"
 echo "PASS refused submit: exit 2, '$(head -c 140 "$WORK/bad.err")', store still $before studies"
 
 # Restart: study a's stored spec damaged; the restarted optimizer cannot serve it and says so, failed.
-wait_until 60 study_is "$id_a" done || fail "study a did not finish"
+wait_until 90 study_is "$id_a" done || fail "study a did not finish"
 kill -9 "$OPT_PID"
 wait "$OPT_PID" 2>/dev/null || true
 sql "$WORK/s.db" "update studies set state = 'running', spec_json = '{\"broken' where study_id = $id_a"
