@@ -77,7 +77,7 @@ json wait_until_finished(client::StudyClient& c, int study_id, bool quiet) {
       last = it->second;
       const std::string line = progress_line(last);
       if (!quiet && line != last_line) {
-        fmt::print(stderr, "{}{}{}", tty ? "\r\033[K" : "", line, tty ? "" : "\n");
+        fmt::print(stderr, "{}{}{}", tty ? "\r\033[K" : "", escape_message_lines(line), tty ? "" : "\n");
         last_line = line;
       }
       if (is_terminal(last["state"].get<std::string>())) break;
@@ -92,7 +92,8 @@ void print_states(const std::map<int, json>& states) {
   fmt::print("{:>5}  {:<20} {:<8} {:>13} {:>10} {:>6} {:>8} {:>8}\n", "study", "name", "state", "completed", "best cost",
              "falls", "workers", "rate/s");
   for (const auto& [id, s] : states) {
-    fmt::print("{:>5}  {:<20} {:<8} {:>13} {:>10} {:>6} {:>8} {:>8}\n", id, s["name"].get<std::string>(),
+    // Names and messages come from study files and the wire: escaped like every echoed input (text.hpp).
+    fmt::print("{:>5}  {:<20} {:<8} {:>13} {:>10} {:>6} {:>8} {:>8}\n", id, escape_for_message(s["name"].get<std::string>(), 64),
                s["state"].get<std::string>(), fmt::format("{}/{}", s["completed"].get<int>(), s["budget"].get<int>()),
                num(s["best_cost"]), s["falls"].get<int>(), s["workers"].get<int>(), num(s["rollouts_per_s"], "{:.1f}"));
   }
@@ -168,7 +169,7 @@ void add_study_service_commands(CLI::App* study) {
       }
       const json last = wait_until_finished(c, r.study_id, o->quiet);
       if (o->json) std::cout << last.dump() << std::endl;
-      else fmt::print("study {}: {} ({})\n", r.study_id, last.value("state", "unknown"), last.value("message", ""));
+      else fmt::print("study {}: {} ({})\n", r.study_id, last.value("state", "unknown"), escape_message_lines(last.value("message", "")));
       if (last.is_null() || last["state"] != "done") throw std::runtime_error("study did not finish");
     });
   }
@@ -186,7 +187,7 @@ void add_study_service_commands(CLI::App* study) {
       client::StudyClient c = connect(o->service);
       const client::CommandResult r = c.control(k, o->study_id, o->service.timeout_s);
       if (!r.ok) throw InputError(r.message);
-      fmt::print("{}\n", r.message);
+      fmt::print("{}\n", escape_message_lines(r.message));
     });
   }
 }
@@ -246,7 +247,7 @@ void add_service_commands(CLI::App& app) {
         for (const auto& [id, s] : c.states()) {
           if (o->study_id >= 0 && id != o->study_id) continue;
           const std::string line = progress_line(s);
-          if (last[id] != line) fmt::print("{}\n", line);
+          if (last[id] != line) fmt::print("{}\n", escape_message_lines(line));
           last[id] = line;
           open = open || !is_terminal(s["state"].get<std::string>());
         }
@@ -279,8 +280,8 @@ void add_service_commands(CLI::App& app) {
       }
       fmt::print("{:<24} {:<8} {:<16} {:>7} {:>6} {:>5} {:>10}\n", "worker", "kind", "host", "pid", "slots", "busy", "completed");
       for (const auto& [id, w] : workers) {
-        fmt::print("{:<24} {:<8} {:<16} {:>7} {:>6} {:>5} {:>10}\n", id, w["kind"].get<std::string>(),
-                   w["host"].get<std::string>(), w["pid"].get<int>(), w["slots"].get<int>(), w["busy"].get<int>(),
+        fmt::print("{:<24} {:<8} {:<16} {:>7} {:>6} {:>5} {:>10}\n", escape_for_message(id, 64), w["kind"].get<std::string>(),
+                   escape_for_message(w["host"].get<std::string>(), 64), w["pid"].get<int>(), w["slots"].get<int>(), w["busy"].get<int>(),
                    w["completed"].get<int>());
       }
     });
