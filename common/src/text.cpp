@@ -1,11 +1,14 @@
 #include "cpgmatch/text.hpp"
 
-#include <fstream>
-#include <sstream>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdint>
+#include <cstring>
 
 #include <fmt/format.h>
-
-#include <filesystem>
 
 #include "cpgmatch/errors.hpp"
 
@@ -51,67 +54,97 @@ std::optional<std::string> name_problem(std::string_view name, std::size_t max_b
   return std::nullopt;
 }
 
-std::string read_text_file(const std::string& path, const std::string& what) {
-  std::ifstream in(path);
-  if (!in) throw InputError(fmt::format("{}: cannot read '{}'", what, path));
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
-std::string read_regular_text_file(const std::string& path, const std::string& what, std::size_t max_bytes) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) throw InputError(fmt::format("{}: cannot read '{}': no such file", what, escape_for_message(path)));
-  if (!fs::is_regular_file(status)) {
-    throw InputError(fmt::format("{}: '{}' is not a regular file", what, escape_for_message(path)));
+std::string read_text_file(const std::string& path, const std::string& what, std::size_t max_bytes) {
+  // O_NONBLOCK: opening a FIFO with no writer returns at once instead of waiting for one.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
+  if (fd < 0) throw InputError(fmt::format("{}: cannot read '{}': {}", what, path, std::strerror(errno)));
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) throw InputError(fmt::format("{}: cannot read '{}': {}", what, path, std::strerror(errno)));
+  if (!S_ISREG(st.st_mode)) {
+    throw InputError(fmt::format("{}: '{}' is not a regular file ({}); only files are read", what, path,
+                                 S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a named pipe"
+                                 : S_ISCHR(st.st_mode) ? "a device" : "a special file"));
   }
-  const auto size = fs::file_size(path, ec);
-  if (ec) throw InputError(fmt::format("{}: cannot read '{}'", what, escape_for_message(path)));
-  if (size > max_bytes) {
-    throw InputError(fmt::format("{}: '{}' has {} bytes, more than the limit of {}", what, escape_for_message(path), size, max_bytes));
+  if (static_cast<std::uintmax_t>(st.st_size) > max_bytes) {
+    throw InputError(fmt::format("{}: '{}' has {} bytes, more than the {} read from such a file", what, path,
+                                 st.st_size, max_bytes));
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: cannot read '{}'", what, escape_for_message(path)));
-  std::string text(static_cast<std::size_t>(size), '\0');
-  in.read(text.data(), static_cast<std::streamsize>(size));
-  text.resize(static_cast<std::size_t>(in.gcount()));
+  std::string text;
+  char buf[65536];
+  while (true) {
+    const ssize_t n = ::read(fd, buf, sizeof(buf));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw InputError(fmt::format("{}: cannot read '{}': {}", what, path, std::strerror(errno)));
+    if (n == 0) break;
+    text.append(buf, static_cast<std::size_t>(n));
+    if (text.size() > max_bytes) {  // grew while being read
+      throw InputError(fmt::format("{}: '{}' has more than the {} bytes read from such a file", what, path, max_bytes));
+    }
+  }
   return text;
 }
 
-std::string escape_for_message(std::string_view text) {
+std::string escape_for_message(std::string_view text, std::size_t max_bytes) {
   std::string out;
-  out.reserve(text.size());
   std::size_t i = 0;
   while (i < text.size()) {
+    if (out.size() >= max_bytes) {
+      out += "...";
+      break;
+    }
     const auto c = static_cast<unsigned char>(text[i]);
     if (c < 0x80) {
-      if (c == '\n') out += "\\n";
-      else if (c == '\t') out += "\\t";
-      else if (c == '\r') out += "\\r";
-      else if (c < 0x20 || c == 0x7F) out += fmt::format("\\x{:02x}", c);
-      else out += static_cast<char>(c);
+      switch (c) {
+        case '\n': out += "\\n"; break;
+        case '\r': out += "\\r"; break;
+        case '\t': out += "\\t"; break;
+        default:
+          if (c < 0x20 || c == 0x7F) {
+            out += fmt::format("\\x{:02x}", c);
+          } else {
+            out += static_cast<char>(c);
+          }
+      }
       ++i;
       continue;
     }
-    // One UTF-8 sequence: its length from the lead byte, kept only when the whole of it is valid.
+    // One UTF-8 sequence: its length from the lead byte, valid only if is_valid_utf8 says so.
     const std::size_t length = (c & 0xE0) == 0xC0 ? 2 : (c & 0xF0) == 0xE0 ? 3 : (c & 0xF8) == 0xF0 ? 4 : 0;
     if (length == 0 || i + length > text.size() || !is_valid_utf8(text.substr(i, length))) {
-      out += fmt::format("\\x{:02x}", c);
+      out += fmt::format("\\x{:02x}", c);  // a bad byte; the next one starts afresh
       ++i;
       continue;
     }
-    char32_t code = length == 2 ? c & 0x1F : length == 3 ? c & 0x0F : c & 0x07;
+    char32_t code = length == 2 ? (c & 0x1F) : length == 3 ? (c & 0x0F) : (c & 0x07);
     for (std::size_t k = 1; k < length; ++k) code = (code << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3F);
-    const bool bidi = (code >= 0x202A && code <= 0x202E) || (code >= 0x2066 && code <= 0x2069) || code == 0x200E || code == 0x200F;
-    const bool c1_control = code >= 0x80 && code <= 0x9F;
-    if (bidi || c1_control) {
-      out += fmt::format("\\u{:04x}", static_cast<unsigned>(code));
+    // C1 controls; bidi embeddings, overrides and isolates (U+202A-202E, U+2066-2069), marks (U+200E/F,
+    // U+061C); zero-width characters; line and paragraph separators; BOM.
+    const bool hidden = (code >= 0x80 && code <= 0x9F) || (code >= 0x202A && code <= 0x202E) ||
+                        (code >= 0x2066 && code <= 0x2069) || code == 0x200E || code == 0x200F || code == 0x061C ||
+                        (code >= 0x200B && code <= 0x200D) || code == 0x2028 || code == 0x2029 || code == 0xFEFF;
+    if (hidden) {
+      out += fmt::format("\\u{:04x}", static_cast<std::uint32_t>(code));
     } else {
       out.append(text.substr(i, length));
     }
     i += length;
+  }
+  return out;
+}
+
+std::string escape_message_lines(std::string_view message) {
+  std::string out;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t end = message.find('\n', start);
+    out += escape_for_message(message.substr(start, end == std::string_view::npos ? end : end - start), 65536);
+    if (end == std::string_view::npos) break;
+    out += '\n';
+    start = end + 1;
   }
   return out;
 }

@@ -1,5 +1,7 @@
 #include "cpgmatch/yaml_reader.hpp"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -122,6 +124,11 @@ InputError parse_error(const std::string& text, const std::string& source, const
 }  // namespace
 
 YamlReader YamlReader::from_file(const std::string& path) {
+  // A FIFO would block the open or the read for ever, a device read without end: files only.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    throw InputError(fmt::format("{}: not a regular file; only files are read", path));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(fmt::format("{}: cannot open file", path));
   // One byte past the limit is enough to refuse a larger file without reading it all.

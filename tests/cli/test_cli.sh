@@ -200,5 +200,34 @@ assert [x['name'] for x in r['reports']]==['tiny-seed-3','tiny-seed-4'], [x['nam
 check "reproduce writes one folder per seed" test -s "$tmp/rep/seed-3/analysis.json" -a -s "$tmp/rep/seed-4/analysis.json"
 check "reproduce table" grep -q "mean ± sd" "$tmp/rep.txt"
 
+# Issue 34: what an attacker or a careless user gives is refused in words, escaped when echoed, and a read
+# never writes. (Domain 90: nothing here reaches DDS; every check fails before an optimizer is looked for.)
+printf 'name: s\nbud\xe2\x80\xaeget\xff: 3\n' >"$tmp/bidi.yaml"
+check "a bidi override and a bad byte are echoed escaped" expect_exit 2 'bud\\u202eget\\xff' \
+  "$bin" study submit --config "$tmp/bidi.yaml" --domain 90 --localhost-only --timeout 1
+check "no raw U+202E reaches the terminal" sh -c "! grep -q \"$(printf '\xe2\x80\xae')\" '$tmp/err'"
+check "study extend -1 names the value" expect_exit 2 "'-1' is not a study id" "$bin" study extend -1 --budget 5 --domain 90
+check "status --study 0 names the value" expect_exit 2 "'0' is not a study id" "$bin" status --study 0 --domain 90
+printf 'trunk: {mass_kg: {value: 1.0e308}}\n' >"$tmp/heavy.yaml"
+check "a 1e308 kg trunk is refused, not a SIGABRT" expect_exit 2 "heavy.yaml:1: field 'trunk.mass_kg': 1e+308 is outside the physical range" \
+  "$bin" rollout --model "$tmp/heavy.yaml"
+printf 'simulation:\n  physics_rate_hz: 1.0e9\n' >"$tmp/fast.yaml"
+check "physics at 1 GHz is refused" expect_exit 2 "fast.yaml:2: field 'simulation.physics_rate_hz'" "$bin" rollout --model "$tmp/fast.yaml"
+printf 'name: s\nmodel: /dev/zero\n' >"$tmp/zero.yaml"
+check "model: /dev/zero is refused before reading" expect_exit 2 "zero.yaml:2: field 'model'.*not a regular file" \
+  timeout 20 "$bin" study resolve --config "$tmp/zero.yaml"
+mkfifo "$tmp/pipe.yaml"
+printf 'name: s\nmodel: pipe.yaml\n' >"$tmp/piped.yaml"
+check "a named pipe as model does not hang" expect_exit 2 "named pipe" timeout 20 "$bin" study resolve --config "$tmp/piped.yaml"
+check "a named pipe as study file does not hang" expect_exit 2 "not a regular file" timeout 20 "$bin" study resolve --config "$tmp/pipe.yaml"
+printf 'name: s\nbudget: 30\nconstraints: ["hip_offset / (hip_amplitude - hip_amplitude) <= 1"]\n' >"$tmp/div.yaml"
+check "a division by zero in a constraint is refused" expect_exit 2 "div.yaml:3.*division by zero" "$bin" study resolve --config "$tmp/div.yaml"
+: >"$tmp/empty.db"
+check "export of an empty file refuses it" expect_exit 2 "not a cpgmatch study store" "$bin" export --store "$tmp/empty.db" --format csv
+check "and writes nothing into it" test ! -s "$tmp/empty.db"
+check "report of an empty file refuses it" expect_exit 2 "not a cpgmatch study store" "$bin" report --store "$tmp/empty.db" --out "$tmp/rep-empty"
+check "store check of an empty file refuses it" expect_exit 2 "not a cpgmatch study store" "$bin" store check --store "$tmp/empty.db"
+check "export of a FIFO refuses it" expect_exit 2 "not a regular file" timeout 20 "$bin" export --store "$tmp/pipe.yaml" --format csv
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -2,6 +2,14 @@
 // loopback): the page and Chart.js served, the event stream, read-only, and the bind errors.
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <vector>
 
 #include <thread>
 
@@ -202,6 +210,151 @@ TEST(DashboardBind, BadAddressesArePortsOutOfRangeAreInputErrorsNamingTheFlag) {
   // TEST-NET-1 (RFC 5737): an address no machine here has.
   EXPECT_NE(message("192.0.2.1", 0).find("--bind 192.0.2.1: not an address of this machine"), std::string::npos);
   EXPECT_NE(message("127.0.0.1", 70000).find("--port 70000: must be 0..65535"), std::string::npos);
+}
+
+// ---- under attack (issue 34) ------------------------------------------------------------------------
+
+// A raw TCP connection to the server that sends `text` and then does nothing more.
+int raw_connection(int port, const std::string& text) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  inet_pton(AF_INET, "127.0.0.1", &a.sin_addr);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  if (!text.empty()) (void)::send(fd, text.data(), text.size(), MSG_NOSIGNAL);
+  return fd;
+}
+
+// What the server sent on `fd` within `timeout_ms` (up to 4 kB; stops at the first bytes for a stream).
+std::string first_bytes(int fd, int timeout_ms) {
+  std::string got;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  while (got.size() < 12 && std::chrono::steady_clock::now() < deadline) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 50) <= 0) continue;
+    char buf[4096];
+    const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
+    if (n <= 0) break;
+    got.append(buf, static_cast<std::size_t>(n));
+  }
+  return got;
+}
+
+class ServerUnderLoad : public ::testing::Test {
+ protected:
+  void start(ServerLimits limits = {}) {
+    server_ = std::make_unique<DashboardServer>(feed_, "var Chart = 1;", limits);
+    feed_.publish(R"({"studies":[],"n":1})");
+    port_ = server_->bind("127.0.0.1", 0);
+    thread_ = std::thread([this] { server_->serve(); });
+  }
+  void TearDown() override {
+    for (const int fd : fds_) ::close(fd);
+    feed_.close();
+    if (server_) server_->stop();
+    if (thread_.joinable()) thread_.join();
+  }
+  // A request as a browser's next one would be: the time it took, in seconds, or -1 when it got no answer
+  // within the client's 8 s (the old server's answer to this load: none, 3 of 3 times).
+  double timed_get(const std::string& path, int expected_status) {
+    httplib::Client c("127.0.0.1", port_);
+    c.set_connection_timeout(8);
+    c.set_read_timeout(8);
+    const auto start = std::chrono::steady_clock::now();
+    const auto r = c.Get(path);
+    if (!r || r->status != expected_status) return -1.0;
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  SnapshotFeed feed_;
+  std::unique_ptr<DashboardServer> server_;
+  int port_ = 0;
+  std::thread thread_;
+  std::vector<int> fds_;
+};
+
+TEST_F(ServerUnderLoad, AnswersEveryRequestWhile200SlowSocketsAnd500EventStreamsAreOpen) {
+  start();
+  // 200 slow sockets: a request head begun and never finished (one header line, then silence).
+  for (int i = 0; i < 200; ++i) {
+    const int fd = raw_connection(port_, "GET / HTTP/1.1\r\nX-Slow: 1\r\n");
+    ASSERT_GE(fd, 0);
+    fds_.push_back(fd);
+  }
+  // 500 event streams (500 tabs), none of which reads what it is sent.
+  std::vector<int> streams;
+  for (int i = 0; i < 500; ++i) {
+    const int fd = raw_connection(port_, "GET /events HTTP/1.1\r\nHost: x\r\n\r\n");
+    ASSERT_GE(fd, 0);
+    streams.push_back(fd);
+    fds_.push_back(fd);
+  }
+  // Every ordinary request is answered meanwhile: the page, the snapshot, Chart.js (timed for the report).
+  double worst = 0.0;
+  int answered = 0;
+  for (int i = 0; i < 30; ++i) {
+    const double t = timed_get(i % 3 == 0 ? "/" : i % 3 == 1 ? "/api/snapshot" : "/chart.js", 200);
+    EXPECT_GE(t, 0.0) << "request " << i << " got no answer";
+    if (t >= 0.0) ++answered;
+    worst = std::max(worst, t);
+  }
+  EXPECT_EQ(answered, 30);
+  // Each stream got either the snapshot (up to the per-address limit) or a 503 that says why.
+  int streaming = 0, refused = 0;
+  for (const int fd : streams) {
+    const std::string got = first_bytes(fd, 2000);
+    if (got.rfind("HTTP/1.1 200", 0) == 0) ++streaming;
+    if (got.rfind("HTTP/1.1 503", 0) == 0) ++refused;
+  }
+  EXPECT_EQ(streaming, 64);
+  EXPECT_EQ(refused, 500 - 64);
+  std::printf("under 200 slow sockets + 500 event streams: %d of 30 requests answered, slowest %.3f s; "
+              "%d streams served, %d refused with 503\n", answered, worst, streaming, refused);
+  RecordProperty("slowest_request_ms", static_cast<int>(worst * 1000));
+}
+
+TEST_F(ServerUnderLoad, GarbageGets400AtOnceAndASlowHeadItsTimeout) {
+  ServerLimits limits;
+  limits.head_deadline = std::chrono::milliseconds(300);
+  start(limits);
+  const std::vector<std::string> garbage = {
+      std::string("\x16\x03\x01\x02\x00\x01\x00\x01\xfc\x03\x03", 11),  // a TLS client hello
+      "GARBAGE\r\n\r\n", "GET /\r\n\r\n", "GET / HTTP/9.9\r\n\r\n", std::string("G\0T / HTTP/1.1\r\n\r\n", 18),
+      "GET /\x1b[2J HTTP/1.1\r\n\r\n"};
+  for (const auto& g : garbage) {
+    const int fd = raw_connection(port_, g);
+    fds_.push_back(fd);
+    EXPECT_EQ(first_bytes(fd, 1000).rfind("HTTP/1.1 400", 0), 0u) << "for " << g.size() << " bytes: " << g.substr(0, 8);
+  }
+  const int slow = raw_connection(port_, "GET / HTTP/1.1\r\n");
+  fds_.push_back(slow);
+  EXPECT_EQ(first_bytes(slow, 3000).rfind("HTTP/1.1 408", 0), 0u);
+  const int huge = raw_connection(port_, "GET / HTTP/1.1\r\nX: " + std::string(10000, 'a'));
+  fds_.push_back(huge);
+  EXPECT_EQ(first_bytes(huge, 1000).rfind("HTTP/1.1 431", 0), 0u);
+  EXPECT_GE(timed_get("/api/snapshot", 200), 0.0);
+}
+
+TEST_F(ServerUnderLoad, ASecondStreamPastTheLimitIsRefusedAndAClosedOneFreesItsPlace) {
+  ServerLimits limits;
+  limits.max_streams_per_address = 1;
+  start(limits);
+  const int first = raw_connection(port_, "GET /events HTTP/1.1\r\n\r\n");
+  fds_.push_back(first);
+  ASSERT_EQ(first_bytes(first, 1000).rfind("HTTP/1.1 200", 0), 0u);
+  const int second = raw_connection(port_, "GET /events HTTP/1.1\r\n\r\n");
+  fds_.push_back(second);
+  const std::string refused = first_bytes(second, 1000);
+  EXPECT_EQ(refused.rfind("HTTP/1.1 503", 0), 0u) << refused;
+  ::close(first);
+  fds_.erase(fds_.begin());
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const int third = raw_connection(port_, "GET /events HTTP/1.1\r\n\r\n");
+  fds_.push_back(third);
+  EXPECT_EQ(first_bytes(third, 1000).rfind("HTTP/1.1 200", 0), 0u);
 }
 
 }  // namespace

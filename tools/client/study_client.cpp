@@ -37,11 +37,22 @@ struct StudyClient::Impl {
   Impl(int domain, bool localhost_only, bool read_trials, bool read_workers)
       : participant(dds::ParticipantConfig::basic(domain, "cpgmatch-cli", localhost_only)),
         client_id(fmt::format("cli-{}-{}", getpid(), std::random_device{}())) {
-    state_reader = std::make_unique<dds::Reader<msg::StudyState>>(participant, [this](const msg::StudyState& s) {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (auto j = json_of(s)) study_states[static_cast<int>(s.study_id())] = std::move(*j);
-      ++revision;
-    });
+    state_reader = std::make_unique<dds::Reader<msg::StudyState>>(
+        participant,
+        [this](const msg::StudyState& s) {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (auto j = json_of(s)) study_states[static_cast<int>(s.study_id())] = std::move(*j);
+          ++revision;
+        },
+        // A study whose optimizer is gone (stopped, killed, restarting) is no longer shown: a long-lived client
+        // (the dashboard) kept its last state for ever, "running", where a new client (`status`) did not list it
+        // at all. Both now show what the optimizers on the domain publish, and a restarted optimizer publishes
+        // every stored study again (issue 34).
+        [this](const msg::StudyState& key, dds::InstanceGone) {
+          std::lock_guard<std::mutex> lock(mutex);
+          study_states.erase(static_cast<int>(key.study_id()));
+          ++revision;
+        });
     if (read_workers) worker_reader = std::make_unique<dds::Reader<msg::WorkerAnnouncement>>(
         participant,
         [this](const msg::WorkerAnnouncement& w) {

@@ -60,6 +60,10 @@ bool ChildProcess::running() {
   return true;
 }
 
+void ChildProcess::signal(int sig) {
+  if (running()) kill(pid_, sig);
+}
+
 int ChildProcess::stop(double grace_s) {
   if (!running()) return status_;
   kill(pid_, SIGTERM);

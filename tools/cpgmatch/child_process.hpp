@@ -17,6 +17,7 @@ class ChildProcess {
   ChildProcess& operator=(const ChildProcess&) = delete;
 
   bool running();                   // false once it has exited (reaps it)
+  void signal(int sig);             // sends `sig` if it is still running
   // SIGTERM, then SIGKILL after `grace_s`; returns its exit status (128+signal when killed).
   int stop(double grace_s = 5.0);
   pid_t pid() const { return pid_; }

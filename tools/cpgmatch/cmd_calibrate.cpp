@@ -174,7 +174,7 @@ void add_calibrate_command(CLI::App& app) {
         if (cmd->count(flag) > 0) throw InputError(fmt::format("{}: not with --store (each stored trace says it)", flag));
       }
       if (!std::filesystem::exists(o->store)) throw InputError(fmt::format("--store {}: no such file", o->store));
-      const study::StudyStore store(o->store);
+      const study::StudyStore store(o->store, study::kReadOnly);
       cal::StudyTraces st = cal::load_study_traces(store, o->study_id, o->window_s);
       for (const auto& why : st.skipped) {
         if (!o->json) fmt::print("skipped {}\n", why);

@@ -24,8 +24,9 @@ std::vector<analysis::ExportedStudy> exported_studies(const std::string& store_p
   if (study_id > 0) {
     stored.push_back(analysis::load_stored_study(store_path, study_id));
   } else {
-    if (!fs::is_regular_file(store_path)) throw InputError(fmt::format("--store '{}': no such study store", store_path));
-    stored = study::StudyStore(store_path).load_all();
+    if (!fs::exists(store_path)) throw InputError(fmt::format("--store '{}': no such study store", store_path));
+    stored = study::StudyStore(store_path, study::kReadOnly).load_all();
+    analysis::require_every_trial_readable(stored, store_path);
   }
   std::vector<analysis::ExportedStudy> out;
   for (const auto& s : stored) out.push_back(analysis::export_study(s));

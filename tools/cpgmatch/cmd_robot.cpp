@@ -120,7 +120,7 @@ int check(const std::string& which, bool json) {
 }
 
 int init(const std::string& urdf_path, const std::string& out_dir, bool force) {
-  const std::string text = read_regular_text_file(urdf_path, "--urdf", kMaxYamlBytes);
+  const std::string text = read_text_file(urdf_path, "--urdf", kMaxYamlBytes);
   const UrdfModel urdf = parse_urdf(text, urdf_path);
   const fs::path dir(out_dir);
   if (fs::exists(dir / "robot.yaml") && !force) {

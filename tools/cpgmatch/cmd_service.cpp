@@ -19,6 +19,7 @@
 #include "cpgmatch/study/model_file.hpp"
 #include "cpgmatch/study/study_config.hpp"
 #include "commands.hpp"
+#include "flag_checks.hpp"
 #include "gait_files.hpp"
 #include "cpgmatch/study/study_spec.hpp"
 #include "cpgmatch/text.hpp"
@@ -77,7 +78,7 @@ json wait_until_finished(client::StudyClient& c, int study_id, bool quiet) {
       last = it->second;
       const std::string line = progress_line(last);
       if (!quiet && line != last_line) {
-        fmt::print(stderr, "{}{}{}", tty ? "\r\033[K" : "", line, tty ? "" : "\n");
+        fmt::print(stderr, "{}{}{}", tty ? "\r\033[K" : "", escape_message_lines(line), tty ? "" : "\n");
         last_line = line;
       }
       if (is_terminal(last["state"].get<std::string>())) break;
@@ -92,7 +93,8 @@ void print_states(const std::map<int, json>& states) {
   fmt::print("{:>5}  {:<20} {:<8} {:>13} {:>10} {:>6} {:>8} {:>8}\n", "study", "name", "state", "completed", "best cost",
              "falls", "workers", "rate/s");
   for (const auto& [id, s] : states) {
-    fmt::print("{:>5}  {:<20} {:<8} {:>13} {:>10} {:>6} {:>8} {:>8}\n", id, s["name"].get<std::string>(),
+    // Names and messages come from study files and the wire: escaped like every echoed input (text.hpp).
+    fmt::print("{:>5}  {:<20} {:<8} {:>13} {:>10} {:>6} {:>8} {:>8}\n", id, escape_for_message(s["name"].get<std::string>(), 64),
                s["state"].get<std::string>(), fmt::format("{}/{}", s["completed"].get<int>(), s["budget"].get<int>()),
                num(s["best_cost"]), s["falls"].get<int>(), s["workers"].get<int>(), num(s["rollouts_per_s"], "{:.1f}"));
   }
@@ -209,7 +211,7 @@ void add_study_service_commands(CLI::App* study) {
       }
       const json last = wait_until_finished(c, r.study_id, o->quiet);
       if (o->json) std::cout << last.dump() << std::endl;
-      else fmt::print("study {}: {} ({})\n", r.study_id, last.value("state", "unknown"), last.value("message", ""));
+      else fmt::print("study {}: {} ({})\n", r.study_id, last.value("state", "unknown"), escape_message_lines(last.value("message", "")));
       if (last.is_null() || last["state"] != "done") throw std::runtime_error("study did not finish");
     });
   }
@@ -220,14 +222,14 @@ void add_study_service_commands(CLI::App* study) {
     };
     auto o = std::make_shared<Options>();
     CLI::App* cmd = study->add_subcommand(kind, fmt::format("{} a study on the optimizer service", kind));
-    cmd->add_option("id", o->study_id, "study id")->required();
+    cmd->add_option("id", o->study_id, "study id")->required()->check(study_id());
     add_service_flags(cmd, o->service, "operator");
     const std::string k = kind;
     cmd->callback([o, k] {
       client::StudyClient c = connect(o->service);
       const client::CommandResult r = c.control(k, o->study_id, o->service.timeout_s);
       if (!r.ok) throw InputError(r.message);
-      fmt::print("{}\n", r.message);
+      fmt::print("{}\n", escape_message_lines(r.message));
     });
   }
 }
@@ -241,7 +243,7 @@ void add_service_commands(CLI::App& app) {
     };
     auto o = std::make_shared<Options>();
     CLI::App* cmd = app.add_subcommand("status", "studies on the optimizer service");
-    cmd->add_option("--study", o->study_id, "only this study");
+    cmd->add_option("--study", o->study_id, "only this study")->check(study_id());
     cmd->add_flag("--json", o->json, "JSON: one object with --study, else an array");
     add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
@@ -276,7 +278,7 @@ void add_service_commands(CLI::App& app) {
     };
     auto o = std::make_shared<Options>();
     CLI::App* cmd = app.add_subcommand("watch", "stream study progress until the studies finish (Ctrl-C to leave)");
-    cmd->add_option("--study", o->study_id, "only this study");
+    cmd->add_option("--study", o->study_id, "only this study")->check(study_id());
     add_service_flags(cmd, o->service, "viewer");
     cmd->callback([o] {
       client::StudyClient c = connect(o->service);
@@ -288,7 +290,7 @@ void add_service_commands(CLI::App& app) {
         for (const auto& [id, s] : c.states()) {
           if (o->study_id >= 0 && id != o->study_id) continue;
           const std::string line = progress_line(s);
-          if (last[id] != line) fmt::print("{}\n", line);
+          if (last[id] != line) fmt::print("{}\n", escape_message_lines(line));
           last[id] = line;
           open = open || !is_terminal(s["state"].get<std::string>());
         }
@@ -322,8 +324,8 @@ void add_service_commands(CLI::App& app) {
       }
       fmt::print("{:<24} {:<8} {:<16} {:>7} {:>6} {:>5} {:>10}\n", "worker", "kind", "host", "pid", "slots", "busy", "completed");
       for (const auto& [id, w] : workers) {
-        fmt::print("{:<24} {:<8} {:<16} {:>7} {:>6} {:>5} {:>10}\n", id, w["kind"].get<std::string>(),
-                   w["host"].get<std::string>(), w["pid"].get<int>(), w["slots"].get<int>(), w["busy"].get<int>(),
+        fmt::print("{:<24} {:<8} {:<16} {:>7} {:>6} {:>5} {:>10}\n", escape_for_message(id, 64), w["kind"].get<std::string>(),
+                   escape_for_message(w["host"].get<std::string>(), 64), w["pid"].get<int>(), w["slots"].get<int>(), w["busy"].get<int>(),
                    w["completed"].get<int>());
       }
     });

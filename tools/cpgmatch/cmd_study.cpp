@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "commands.hpp"
+#include "flag_checks.hpp"
 #include "cpgmatch/analysis/science_report.hpp"
 #include "gait_files.hpp"
 #include "local_study.hpp"
@@ -29,7 +30,7 @@ void add_steering_commands(CLI::App* study) {
     CLI::App* cmd = study->add_subcommand(
         "extend",
         "continue a stopped or finished study with N more trials (its model, exactly as a restart continues it)");
-    cmd->add_option("id", o->study_id, "study id")->required();
+    cmd->add_option("id", o->study_id, "study id")->required()->check(study_id());
     cmd->add_option("--budget", o->added,
                     "trials to ADD to the study's budget, as Optuna's n_trials in study.optimize() (a study of 30 "
                     "extended with --budget 20 ends at 50)")
@@ -53,7 +54,7 @@ void add_steering_commands(CLI::App* study) {
     auto o = std::make_shared<Options>();
     CLI::App* cmd = study->add_subcommand(
         "enqueue", "run known gaits as a study's next trials (Optuna's enqueue_trial); they count in its budget");
-    cmd->add_option("id", o->study_id, "study id (running, paused or stopped)")->required();
+    cmd->add_option("id", o->study_id, "study id (running, paused or stopped)")->required()->check(study_id());
     cmd->add_option("--params", o->params,
                     "a parameter file (like configs/params/default.yaml); repeat for several gaits, queued in order")
         ->required();

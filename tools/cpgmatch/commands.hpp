@@ -40,6 +40,8 @@ void add_spec_commands(CLI::App& app, CLI::App* study);
 void add_calibrate_command(CLI::App& app);
 // `robot list|check|init`: the shipped robot descriptions, checking one, and a skeleton from a URDF.
 void add_robot_command(CLI::App& app);
+// `store check` (cmd_store.cpp).
+void add_store_command(CLI::App& app);
 
 // Builds a simulation job from the usual files and flags (empty paths: the shipped defaults).
 sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vector<std::string>& assignments,

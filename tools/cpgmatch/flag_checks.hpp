@@ -32,6 +32,20 @@ inline CLI::Validator finite_in(double low, double high, const std::string& unit
       fmt::format("in [{}, {}] {}", low, high, unit));
 }
 
+// A study id: a whole number >= 1. The message names the value given ("-1" became study 0 on the way and the
+// service answered "no study 0").
+inline CLI::Validator study_id() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        const bool digits = !text.empty() && text.size() <= 9 && text.find_first_not_of("0123456789") == std::string::npos;
+        if (!digits || std::stoi(text) < 1) {
+          return fmt::format("'{}' is not a study id (a whole number >= 1)", text.substr(0, 40));
+        }
+        return "";
+      },
+      "a study id (>= 1)");
+}
+
 // A whole number in [0, 2^64 - 1], for seeds: "-1" must not wrap around to 2^64 - 1, nor a longer number be
 // cut down to 2^64 - 1 by the conversion (both were accepted and ran as seed 2^64 - 1).
 inline CLI::Validator whole_non_negative() {

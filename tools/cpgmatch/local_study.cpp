@@ -23,6 +23,8 @@
 #include "cpgmatch/dds/domain.hpp"
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/text.hpp"
+#include "cpgmatch/yaml_reader.hpp"
 #include "cpgmatch/study/model_file.hpp"
 #include "service_flags.hpp"
 #include "study_client.hpp"
@@ -65,6 +67,35 @@ runtime::DomainLease lease_private_domain() {
 
 volatile std::sig_atomic_t g_interrupted = 0;
 
+// SIGTERM to every child, then waits for all of them together, SIGKILL after `grace_s`; the optimizer last, so
+// the workers' final reports still reach it.
+void stop_children(std::vector<std::unique_ptr<ChildProcess>>& children, double grace_s) {
+  for (auto it = children.rbegin(); it != children.rend(); ++it) {
+    if (it + 1 != children.rend()) (*it)->signal(SIGTERM);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(grace_s);
+  for (auto it = children.rbegin(); it != children.rend(); ++it) {
+    const double left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+    (*it)->stop(std::max(0.0, left));
+  }
+}
+
+}  // namespace
+
+std::optional<std::string> every_trial_failed(const std::vector<nlohmann::json>& records) {
+  if (records.empty()) return std::nullopt;
+  std::string first;
+  for (const auto& r : records) {
+    const std::string outcome = r.at("report").value("outcome", "");
+    if (outcome == "completed" || outcome == "fell") return std::nullopt;
+    if (first.empty()) first = fmt::format("{}: {}", outcome, r.at("report").value("error", ""));
+  }
+  return fmt::format("every one of its {} trials failed (none completed or fell); the first: {}", records.size(),
+                     first);
+}
+
+namespace {
+
 }  // namespace
 
 fs::path timestamped_results_dir(const std::string& prefix) {
@@ -106,8 +137,7 @@ LocalStudyOptions paper_study_options() {
 LocalStudyOptions study_file_options(const std::string& path) {
   (void)study::load_study_config(path);  // fails here, naming file:line, before anything starts
   LocalStudyOptions o;
-  std::ifstream in(path);
-  o.config_text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  o.config_text = read_text_file(path, "--config", kMaxYamlBytes);
   o.config_text = study::with_model_file(o.config_text, path);  // `model: FILE` sends the file's content
   o.config_source = path;
   return o;
@@ -230,12 +260,13 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
                                  "warn"},
         (dir / fmt::format("worker-{}.log", i)).string()));
   }
-  auto stop_all = [&] {
-    for (auto it = children.rbegin(); it != children.rend(); ++it) (*it)->stop();
-  };
+  // Every child is asked to stop at once and all share one grace period (a worker finishing a long rollout
+  // is SIGKILLed after it; its rollout process dies with it, PR_SET_PDEATHSIG): N workers one after the other
+  // took N grace periods, longer than a supervisor waits after its SIGTERM.
+  auto stop_all = [&] { stop_children(children, 5.0); };
   g_interrupted = 0;
-  std::signal(SIGINT, [](int) { g_interrupted = 1; });
-  std::signal(SIGTERM, [](int) { g_interrupted = 1; });
+  // SIGHUP too: a closed terminal or ssh session must not leave the study's processes running.
+  for (const int sig : {SIGINT, SIGTERM, SIGHUP}) std::signal(sig, [](int) { g_interrupted = 1; });
 
   // The children take $CPGMATCH_KEYSTORE (and Fast DDS's own variables) from the environment; this process
   // must join them the same way, as the operator, or it would never hear its own optimizer.
@@ -248,6 +279,10 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   if (!submitted.ok) {
     stop_all();
     throw InputError(submitted.message);
+  }
+  if (g_interrupted) {  // a signal during the submission (up to 30 s)
+    stop_all();
+    throw std::runtime_error(fmt::format("interrupted; the study is kept in {} (resume with --store)", store));
   }
   result.study_id = submitted.study_id;
   ProgressBar bar(cfg.budget, opts.quiet, opts.progress_label);
@@ -291,6 +326,9 @@ LocalStudyResult run_local_study(const LocalStudyOptions& opts) {
   if (state["state"] != "done") {
     throw std::runtime_error(fmt::format("study {} ended {}: {}", submitted.study_id, state["state"].get<std::string>(),
                                          state["message"].get<std::string>()));
+  }
+  if (const auto why = every_trial_failed(result.records)) {
+    throw std::runtime_error(fmt::format("study {}: {} (results kept in {})", submitted.study_id, *why, dir.string()));
   }
   return result;
 }

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -59,6 +60,10 @@ std::filesystem::path timestamped_results_dir(const std::string& prefix);
 LocalStudyOptions paper_study_options();
 // Options for a study file (its text is read here; load errors name the file).
 LocalStudyOptions study_file_options(const std::string& path);
+
+// Why a finished study measured nothing (every trial's outcome is neither completed nor fell: errors,
+// divergences, refusals), or nothing when at least one trial measured a gait. `records`: to_json(TrialRecord).
+std::optional<std::string> every_trial_failed(const std::vector<nlohmann::json>& records);
 
 // Throws InputError for a study the service refuses, std::runtime_error when the service or every
 // worker exits, on SIGINT/SIGTERM, or when the study ends other than done.

@@ -10,6 +10,7 @@
 #include "cpgmatch/runtime/version.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
+#include "cpgmatch/text.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"cpgmatch: learn to match a CPG to a legged robot's natural dynamics"};
@@ -35,6 +36,7 @@ int main(int argc, char** argv) {
   cpgmatch::cli::add_estop_command(app);
   cpgmatch::cli::add_calibrate_command(app);
   cpgmatch::cli::add_robot_command(app);
+  cpgmatch::cli::add_store_command(app);
   try {
     cpgmatch::runtime::export_config_dir();  // before parsing: subcommands run inside parse()
     app.parse(argc, argv);
@@ -45,13 +47,16 @@ int main(int argc, char** argv) {
         return cpgmatch::kExitBadInput;
       }
     }
-    const int code = app.exit(e);
-    return code == 0 ? 0 : cpgmatch::kExitBadInput;
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // CLI11's own message echoes the arguments: escaped like every other message.
+    std::cerr << "error: " << cpgmatch::escape_message_lines(e.what()) << "\nRun with --help for more information."
+              << std::endl;
+    return cpgmatch::kExitBadInput;
   } catch (const cpgmatch::InputError& e) {
-    std::cerr << "error: " << e.what() << std::endl;
+    std::cerr << "error: " << cpgmatch::escape_message_lines(e.what()) << std::endl;
     return cpgmatch::kExitBadInput;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << std::endl;
+    std::cerr << "error: " << cpgmatch::escape_message_lines(e.what()) << std::endl;
     return cpgmatch::kExitFailure;
   }
   return cpgmatch::kExitOk;

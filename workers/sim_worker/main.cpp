@@ -7,9 +7,11 @@
 // own process because Debian's ODE is not thread-safe; returns one report per candidate. On SIGTERM it
 // stops accepting, finishes the rollouts already running, hands back the queued ones (by leaving the
 // domain, which makes the optimizer re-issue them) and exits 0.
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdio>
 #include <iostream>
 #include <iterator>
 #include <optional>
@@ -26,6 +28,8 @@
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/man_pages.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
+#include "cpgmatch/domain/report_json.hpp"
+#include "cpgmatch/sim/ode_errors.hpp"
 #include "cpgmatch/worker/candidate_queue.hpp"
 #include "cpgmatch/worker/worker_link.hpp"
 #include "rollout_slot.hpp"
@@ -112,7 +116,27 @@ class SimWorker {
 };
 
 // `--run-one`: one rollout whose request arrives as JSON on stdin; prints the report JSON and the cost.
+// An ODE failure in a rollout process: the rollout diverged (the model or the gait took ODE where it cannot
+// step), reported as such with ODE's reason, instead of the process dying with SIGABRT.
+[[noreturn]] void report_ode_failure(const std::string& reason) {
+  domain::RolloutReport r;
+  r.outcome = domain::Outcome::kDiverged;
+  r.error = "simulation failed: " + reason;
+  // The cost of a diverged rollout is a placeholder the optimizer does not learn from (its outcome says so);
+  // the last line must still be a finite number.
+  std::fputs((domain::to_json(r).dump() + "\n0\n").c_str(), stdout);
+  std::fflush(stdout);
+  _exit(kExitOk);
+}
+
 int run_one() {
+  // This process is worthless once its worker is gone, even when the worker is SIGKILLed. The worker's fork
+  // sets this too, but a shell between them would not pass it on; checked again after setting it, in case
+  // the worker died in between.
+  const pid_t parent = getppid();
+  prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (parent == 1 || getppid() != parent) return kExitFailure;
+  sim::set_ode_failure_hook(report_ode_failure);
   const std::string input((std::istreambuf_iterator<char>(std::cin)), std::istreambuf_iterator<char>());
   nlohmann::json request;
   try {

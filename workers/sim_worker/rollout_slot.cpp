@@ -106,7 +106,10 @@ domain::RolloutReport execute_candidate(const domain::Candidate& c, const SlotOp
     r.summary.distance_m = r.summary.mean_speed_mps = 0.0;  // nothing moved: a delay, not a gait
     r.summary.normalized_torque = r.summary.summed_torque_nm = 0.0;
   } else {
-    const std::string command = fmt::format("{} --run-one", shell_quote(self_executable()));
+    // `exec`: the shell becomes the rollout process instead of forking it, so the rollout process is the
+    // worker's own child and dies with it (PR_SET_PDEATHSIG); a shell in between left it running as an
+    // orphan when the worker was killed (issue 34).
+    const std::string command = fmt::format("exec {} --run-one", shell_quote(self_executable()));
     const double timeout = c.lease_s > 0.0 ? c.lease_s : 600.0;
     const EvaluationOutcome outcome = run_command_objective(command, rollout_request(c, *spec.spec).dump(), timeout);
     if (!outcome.ok) return failed(c, o, outcome.message);

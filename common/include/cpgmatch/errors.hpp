@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "cpgmatch/text.hpp"
+
 namespace cpgmatch {
 
 class InputError : public std::runtime_error {
@@ -22,16 +24,17 @@ inline constexpr int kExitFailure = 1;
 inline constexpr int kExitBadInput = 2;
 
 // Runs an executable's body and turns what escapes it into the exit codes above, with "error: ..." on
-// stderr: InputError -> 2, anything else -> 1.
+// stderr: InputError -> 2, anything else -> 1. The message may echo input (a flag, a file's key): it is printed
+// through escape_message_lines (text.hpp), as every cpgmatch executable prints its errors.
 template <class Body>
 int run_reporting_errors(Body&& body) {
   try {
     return body();
   } catch (const InputError& e) {
-    std::cerr << "error: " << e.what() << std::endl;
+    std::cerr << "error: " << escape_message_lines(e.what()) << std::endl;
     return kExitBadInput;
   } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << std::endl;
+    std::cerr << "error: " << escape_message_lines(e.what()) << std::endl;
     return kExitFailure;
   }
 }

@@ -311,7 +311,7 @@ RobotDescription load_robot(const std::string& name_or_path) {
   } else if (fs::is_directory(yaml_path)) {
     yaml_path /= "robot.yaml";
   }
-  const std::string yaml_text = read_regular_text_file(yaml_path.string(), "robot", kMaxYamlBytes);
+  const std::string yaml_text = read_text_file(yaml_path.string(), "robot", kMaxYamlBytes);
   // The URDF's file name comes from the YAML; read it first to find it.
   const YamlReader reader = YamlReader::from_string(yaml_text, yaml_path.string());
   const std::string urdf_name = reader.require_string("urdf");
@@ -319,7 +319,7 @@ RobotDescription load_robot(const std::string& name_or_path) {
     reader.fail("urdf", "must name a file in the robot's folder (no absolute path, no '..')");
   }
   const fs::path urdf_path = yaml_path.parent_path() / urdf_name;
-  const std::string urdf_text = read_regular_text_file(urdf_path.string(), reader.where("urdf"), kMaxYamlBytes);
+  const std::string urdf_text = read_text_file(urdf_path.string(), reader.where("urdf"), kMaxYamlBytes);
   return parse_robot(yaml_text, yaml_path.string(), urdf_text, urdf_path.string());
 }
 

@@ -138,7 +138,24 @@ void Coordinator::accept_submission(const domain::StudyCommand& command, const R
   const int id = s.id;
   info_(fmt::format("study {} '{}' submitted: budget {}, {} parameters", id, s.name, s.config.budget,
                     s.config.space.size()));
-  open_study(std::move(s), nullptr, now_s);
+  try {
+    open_study(std::move(s), nullptr, now_s);
+  } catch (const study::StoreWriteError&) {
+    throw;
+  } catch (const std::exception& e) {
+    // Refused after it was stored (the spec's checks at resolve should have caught it): failed on record and
+    // in every client's view, never left "running" with nothing to run (issue 34).
+    studies_.erase(id);
+    store_.set_state(id, to_string(StudyStatus::kFailed), e.what());
+    domain::StudyState failed;
+    failed.study_id = id;
+    failed.name = spec->config().name;
+    failed.status = StudyStatus::kFailed;
+    failed.message = e.what();
+    failed.budget = spec->config().budget;
+    out_.publish_state(failed);
+    throw;
+  }
   enqueue_points(studies_.at(id), queued, command.enqueue);
   reply.ok = true;
   reply.study_id = id;

@@ -84,6 +84,22 @@ std::string migrated_origin() {
 }  // namespace
 
 void Coordinator::resume_from_store(double now_s) {
+  // A stored study this service cannot serve is still published, as it stands in the store: every client
+  // (`status`, the dashboard) then lists the same studies, where before `status` left such a study out and a
+  // dashboard that had seen it under the previous optimizer still showed it running (issue 34).
+  auto show_unserved = [this](const study::StoredStudy& stored, StudyStatus status, const std::string& message) {
+    domain::StudyState state;
+    state.study_id = stored.study_id;
+    state.name = stored.name;
+    state.status = status;
+    state.message = message;
+    state.budget = static_cast<int>(stored.trials.size());
+    state.completed = static_cast<int>(std::count_if(stored.trials.begin(), stored.trials.end(), [](const auto& t) {
+      return t.status == study::TrialStatus::kDone;
+    }));
+    state.elapsed_s = std::max(0.0, wall_now() - stored.created_at_s);
+    out_.publish_state(state);
+  };
   for (const study::StoredStudy& stored : store_.load_all()) {
     StudyRun s;
     s.id = stored.study_id;
@@ -119,6 +135,7 @@ void Coordinator::resume_from_store(double now_s) {
       warn_(fmt::format("study {} in {}: its configuration no longer loads ({}); {}", s.id, store_.path(), e.what(),
                         was_open ? "marked failed" : "left as stored"));
       if (was_open) store_.set_state(s.id, to_string(StudyStatus::kFailed), e.what());
+      show_unserved(stored, was_open ? StudyStatus::kFailed : s.state, was_open ? e.what() : s.message);
       continue;
     }
     const int id = s.id;
@@ -131,6 +148,7 @@ void Coordinator::resume_from_store(double now_s) {
       studies_.erase(id);
       warn_(fmt::format("study {} in {}: cannot be reopened ({}); marked failed", id, store_.path(), e.what()));
       store_.set_state(id, to_string(StudyStatus::kFailed), fmt::format("cannot be reopened: {}", e.what()));
+      show_unserved(stored, StudyStatus::kFailed, fmt::format("cannot be reopened: {}", e.what()));
     }
   }
   if (!studies_.empty()) info_(fmt::format("resumed {} studies from {}", studies_.size(), store_.path()));

@@ -1,6 +1,9 @@
 #include "cpgmatch/bo/constraints.hpp"
 
+#include <algorithm>
 #include <cctype>
+#include <functional>
+#include <iterator>
 #include <cmath>
 #include <cstdlib>
 
@@ -171,6 +174,61 @@ Constraint Constraint::parse(const std::string& text, const std::set<std::string
   c.text_ = text;
   Parser(text, known_names).parse(c.lhs_, c.rhs_, c.less_equal_, c.names_);
   return c;
+}
+
+namespace {
+
+struct Interval {
+  double lo, hi;
+};
+
+// The interval `e` takes with every name in its range; `problem` gets the first divisor that can be 0.
+Interval interval_of(const Expr& e, const std::function<std::pair<double, double>(const std::string&)>& range_of,
+                     std::optional<std::string>& problem) {
+  switch (e.kind) {
+    case Expr::Kind::kNumber: return {e.number, e.number};
+    case Expr::Kind::kName: {
+      const auto [lo, hi] = range_of(e.name);
+      return {lo, hi};
+    }
+    case Expr::Kind::kNegate: {
+      const Interval a = interval_of(*e.a, range_of, problem);
+      return {-a.hi, -a.lo};
+    }
+    default: break;
+  }
+  if (!e.a || !e.b) return {0.0, 0.0};  // a bound dimension: not reached before binding
+  const Interval a = interval_of(*e.a, range_of, problem), b = interval_of(*e.b, range_of, problem);
+  switch (e.kind) {
+    case Expr::Kind::kAdd: return {a.lo + b.lo, a.hi + b.hi};
+    case Expr::Kind::kSubtract: return {a.lo - b.hi, a.hi - b.lo};
+    case Expr::Kind::kMultiply: {
+      const double p[] = {a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi};
+      return {*std::min_element(std::begin(p), std::end(p)), *std::max_element(std::begin(p), std::end(p))};
+    }
+    case Expr::Kind::kDivide: {
+      if (!(b.lo > 0.0 || b.hi < 0.0) || !std::isfinite(b.lo) || !std::isfinite(b.hi)) {
+        if (!problem) {
+          problem = b.lo == b.hi ? fmt::format("divides by a term that is always {:g}", b.lo)
+                                 : fmt::format("divides by a term that ranges over [{:g}, {:g}], which holds 0", b.lo, b.hi);
+        }
+        return {-HUGE_VAL, HUGE_VAL};
+      }
+      const double p[] = {a.lo / b.lo, a.lo / b.hi, a.hi / b.lo, a.hi / b.hi};
+      return {*std::min_element(std::begin(p), std::end(p)), *std::max_element(std::begin(p), std::end(p))};
+    }
+    default: return {0.0, 0.0};
+  }
+}
+
+}  // namespace
+
+std::optional<std::string> Constraint::division_by_zero(
+    const std::function<std::pair<double, double>(const std::string&)>& range_of) const {
+  std::optional<std::string> problem;
+  (void)interval_of(*lhs_, range_of, problem);
+  (void)interval_of(*rhs_, range_of, problem);
+  return problem;
 }
 
 double Constraint::slack(const std::map<std::string, double>& values) const {

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/text.hpp"
 #include "cpgmatch/study/study_config.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 
@@ -23,13 +24,20 @@ std::string with_model_file(const std::string& study_yaml, const std::string& st
   }
   namespace fs = std::filesystem;
   const fs::path path = fs::path(name).is_absolute() ? fs::path(name) : fs::path(study_path).parent_path() / name;
-  std::ifstream in(path);
-  if (!in) r.fail("model", fmt::format("cannot read the model file '{}' ({}, relative to the study file)", name, path.string()));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (text.str().size() > kMaxStudyFileBytes) {
-    r.fail("model", fmt::format("the model file '{}' has {} bytes, more than {}", name, text.str().size(), kMaxStudyFileBytes));
+  // A regular file only, its size checked before it is read (a FIFO hung, /dev/zero grew past 5 GB), and at
+  // most kMaxStudyFileBytes: its content travels inside the study text, which may have no more.
+  std::string content;
+  try {
+    content = read_text_file(path.string(), "model file", kMaxStudyFileBytes);
+  } catch (const InputError& e) {
+    r.fail("model", fmt::format("{} (relative to the study file: {})", e.what(), path.string()));
   }
+  if (study_yaml.size() + content.size() > kMaxStudyFileBytes) {
+    r.fail("model", fmt::format("the study file with its model file '{}' has {} bytes, more than a study may have ({})",
+                                name, study_yaml.size() + content.size(), kMaxStudyFileBytes));
+  }
+  std::ostringstream text;
+  text << content;
   // Appended, not re-emitted: the study's own lines keep their numbers for every later error. A JSON string
   // is a YAML double-quoted scalar.
   std::string quoted;

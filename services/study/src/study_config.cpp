@@ -86,6 +86,21 @@ void parse_constraints(const YamlReader& r, StudyConfig& s) {
     } catch (const bo::ConstraintSyntaxError& e) {
       throw InputError(fmt::format("{}: field '{}': {} of \"{}\"", where, field, e.what(), text));
     }
+    // A divisor that can be 0 makes the constraint inf or NaN there: refused, not silently infeasible. A name
+    // that is not searched counts with its fixed value, or its whole valid range (its base value comes later).
+    const auto range_of = [&](const std::string& name) -> std::pair<double, double> {
+      if (const int d = s.space.index_of(name); d >= 0) {
+        const auto& dim = s.space.dimensions()[static_cast<std::size_t>(d)];
+        return {dim.low, dim.high};
+      }
+      if (const auto f = s.space.fixed().find(name); f != s.space.fixed().end()) return {f->second, f->second};
+      const ParameterInfo& info = parameter_info(name);
+      return {info.low, info.high};
+    };
+    if (const auto why = s.constraints.back().division_by_zero(range_of)) {
+      throw InputError(fmt::format("{}: field '{}': \"{}\" {} within the search space (a division by zero has no "
+                                   "value; bound the divisor away from 0)", where, field, text, *why));
+    }
     const auto& names = s.constraints.back().names();
     if (std::none_of(names.begin(), names.end(), [&](const std::string& n) { return s.space.index_of(n) >= 0; })) {
       throw InputError(fmt::format("{}: field '{}': \"{}\" uses no searched parameter: it is true or false for "

@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/study/model_file.hpp"
@@ -280,8 +281,11 @@ StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& s
                                  "submit` reads the file beside the study file and sends it)",
                                  file));
     }
-    merge_overrides(model, YamlReader::from_string(r.require_string(kModelFileTextKey), file));
+    const YamlReader model_file = YamlReader::from_string(r.require_string(kModelFileTextKey), file);
+    (void)sim::parse_morti_model(model_file);  // its errors name the model file's own lines, not the merged text's
+    merge_overrides(model, model_file);
   } else if (r.has(kModel)) {
+    (void)sim::parse_morti_model(r.child(kModel));  // errors name the study file's lines
     merge_overrides(model, r.child(kModel));
   }
   if (r.has(kSettings)) merge_overrides(settings, r.child(kSettings));
@@ -292,7 +296,18 @@ StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& s
   tree[kModel] = std::move(model);
   tree[kSettings] = std::move(settings);
   tree[kBaseParameters] = std::move(base);
-  return StudySpec(std::move(tree), source_name);
+  StudySpec spec(std::move(tree), source_name);
+  // Constraints that leave too little of the space for the initial design are refused here, at the
+  // constraints' line, before a service stores the study: refused only when the optimizer was made, the
+  // study stayed stored and "running" with 0 trials (issue 34).
+  if (!spec.config().constraints.empty()) {
+    try {
+      (void)bo::BayesianOptimizer(spec.config().space, spec.config().optimizer);
+    } catch (const InputError& e) {
+      r.fail("constraints", e.what());
+    }
+  }
+  return spec;
 }
 
 StudySpec StudySpec::from_json_text(const std::string& canonical_json, const std::string& source_name) {

@@ -1,6 +1,7 @@
 #include "cpgmatch/study/study_store.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <sqlite3.h>
@@ -12,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/domain/report_json.hpp"
+#include "cpgmatch/errors.hpp"
 #include "sqlite_statement.hpp"
 
 namespace cpgmatch::study {
@@ -60,6 +62,7 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
   }
   sqlite3_busy_timeout(db_, 5000);
   try {
+    check_schema();  // before anything is created: never add cpgmatch's tables to someone else's database
     exec("PRAGMA journal_mode=WAL");
     exec(durability == Durability::kFull ? "PRAGMA synchronous=FULL" : "PRAGMA synchronous=NORMAL");
     exec("PRAGMA foreign_keys=ON");
@@ -105,7 +108,16 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
     } catch (const StoreWriteError&) {
       store_id_ = 0;  // an older store opened read-only (analyze): readers need no id
     }
+    try {
+      exec(fmt::format("PRAGMA user_version = {}", kStoreSchemaVersion));
+    } catch (const StoreWriteError&) {
+      // a read-only file: it stays at its version, which check_schema accepted
+    }
   } catch (const StoreWriteError&) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;  // names the path already
+  } catch (const InputError&) {
     sqlite3_close(db_);
     db_ = nullptr;
     throw;  // names the path already
@@ -114,6 +126,90 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
     db_ = nullptr;
     throw std::runtime_error(fmt::format("study store {}: {}", path, e.what()));
   }
+}
+
+StudyStore::StudyStore(const std::string& path, ReadOnly) : path_(path) {
+  // A special file (a FIFO, /dev/zero) would hang or read without end; a missing one SQLite would create.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) throw InputError(fmt::format("study store '{}': no such file", path));
+  if (!S_ISREG(st.st_mode)) throw InputError(fmt::format("study store '{}': not a regular file", path));
+  if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY | SQLITE_OPEN_FULLMUTEX, nullptr) != SQLITE_OK) {
+    const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw std::runtime_error(fmt::format("study store {}: cannot open read-only: {}", path, why));
+  }
+  sqlite3_busy_timeout(db_, 5000);
+  try {
+    check_schema();
+    // Cheap next to reading every trial (one pass over the file's pages), and it tells a damaged store from
+    // a damaged study: the message then blames the store.
+    Statement q(db_, "PRAGMA quick_check");
+    std::string problems;
+    while (q.step()) {
+      if (q.column_text(0) != "ok") problems += (problems.empty() ? "" : "; ") + q.column_text(0);
+    }
+    if (!problems.empty()) {
+      throw std::runtime_error(fmt::format("damaged (SQLite quick_check: {}); `cpgmatch store check` lists what",
+                                           problems.substr(0, 400)));
+    }
+    Statement id(db_, "SELECT value FROM meta WHERE key = 'store_id'");
+    try {
+      if (id.step()) store_id_ = std::stoull(id.column_text(0));
+    } catch (const std::exception&) {
+      store_id_ = 0;  // readers need no id
+    }
+  } catch (const InputError&) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  } catch (const std::exception& e) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw std::runtime_error(fmt::format("study store {}: {}", path, e.what()));
+  } catch (...) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  }
+}
+
+void StudyStore::check_schema() const {
+  // "file is not a database" shows up on the first read: say it in the store's words.
+  const int probe = sqlite3_exec(db_, "SELECT count(*) FROM sqlite_master", nullptr, nullptr, nullptr);
+  if (probe == SQLITE_NOTADB) {
+    throw InputError(fmt::format("'{}' is not a cpgmatch study store (not an SQLite database)", path_));
+  }
+  if (probe != SQLITE_OK) throw_sqlite_error(db_, probe, "reading the schema");
+  int tables = 0;
+  bool studies = false, trials = false;
+  {
+    Statement t(db_, "SELECT name FROM sqlite_master WHERE type = 'table'");
+    while (t.step()) {
+      ++tables;
+      studies = studies || t.column_text(0) == "studies";
+      trials = trials || t.column_text(0) == "trials";
+    }
+  }
+  const bool read_only = sqlite3_db_readonly(db_, "main") == 1;
+  // A writable empty database is a new store; anything else must have cpgmatch's tables.
+  if (!(studies && trials) && (tables > 0 || read_only)) {
+    throw InputError(fmt::format("'{}' is not a cpgmatch study store ({})", path_,
+                                 tables == 0 ? "an empty database" : "an SQLite database without cpgmatch's tables"));
+  }
+  Statement v(db_, "PRAGMA user_version");
+  const int version = v.step() ? v.column_int(0) : 0;
+  if (version > kStoreSchemaVersion || version < 0) {
+    throw InputError(fmt::format("study store '{}' has schema version {}; this cpgmatch reads versions up to {} "
+                                 "(written by a newer cpgmatch? use that one)", path_, version, kStoreSchemaVersion));
+  }
+}
+
+std::string StudyStore::integrity_check() const {
+  Statement q(db_, "PRAGMA integrity_check");
+  std::string out;
+  while (q.step()) out += (out.empty() ? "" : "\n") + q.column_text(0);
+  return out;
 }
 
 StudyStore::~StudyStore() { sqlite3_close(db_); }
@@ -312,19 +408,25 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     const int study_id = s.column_int(0);
     while (k < out.size() && out[k].study_id != study_id) ++k;
     if (k == out.size()) throw std::runtime_error(fmt::format("study store {}: trial of unknown study {}", path_, study_id));
-    if (!out[k].load_error.empty()) continue;
     StoredTrial t;
     t.trial_id = s.column_int(1);
     // A row that does not parse spoils its own study, not the store: the study is returned with the
-    // reason, for the service to mark it failed, and every other study loads as usual.
+    // reason, for the service to mark it failed, and every other study loads as usual. Every bad row is
+    // named (unreadable_trials): readers such as export must say which trials they could not read.
     try {
       t.x = json_vector(nlohmann::json::parse(s.column_text(2)));
       t.report = nlohmann::json::parse(s.column_text(10));
+      const std::string status = s.column_text(3);
+      if (status != "done" && status != "in_flight") throw std::runtime_error("status '" + status + "'");
+      if (status == "done" && t.report.is_object()) (void)domain::report_from_json(t.report);  // throws
     } catch (const std::exception& e) {
-      out[k].load_error = fmt::format("trial {}: unreadable row ({})", t.trial_id, e.what());
+      const std::string why = fmt::format("trial {}: unreadable row ({})", t.trial_id, e.what());
+      if (out[k].load_error.empty()) out[k].load_error = why;
+      out[k].unreadable_trials.push_back(why);
       out[k].trials.clear();
       continue;
     }
+    if (!out[k].load_error.empty()) continue;
     t.status = s.column_text(3) == "done" ? TrialStatus::kDone : TrialStatus::kInFlight;
     t.attempt = s.column_int(4);
     t.worker_id = s.column_text(5);

@@ -1,5 +1,7 @@
 #include "cpgmatch/sim/morti_model.hpp"
 
+#include "cpgmatch/sim/physical_ranges.hpp"
+
 #include "cpgmatch/yaml_reader.hpp"
 
 namespace cpgmatch::sim {
@@ -123,6 +125,10 @@ MortiModel parse_morti_model(const YamlReader& r) {
     s.reject_unknown_keys({"physics_rate_hz", "gravity_m_s2"});
     m.physics_rate_hz = positive(s, "physics_rate_hz", m.physics_rate_hz);
     m.gravity_m_s2 = positive(s, "gravity_m_s2", m.gravity_m_s2);
+  }
+  // Finite and > 0 is not enough: 1e308 kg aborts ODE (physical_ranges.hpp).
+  if (const auto problem = check_physical_ranges(m)) {
+    (r.has(problem->section) ? r.child(problem->section) : r).fail(problem->key, problem->message);
   }
   return m;
 }

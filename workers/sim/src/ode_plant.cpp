@@ -10,12 +10,17 @@
 
 #include <ode/ode.h>
 
+#include "cpgmatch/sim/ode_errors.hpp"
+
 namespace cpgmatch::sim {
 namespace {
 
 void init_ode_once() {
   static std::once_flag flag;
-  std::call_once(flag, [] { dInitODE2(0); });
+  std::call_once(flag, [] {
+    install_ode_error_handlers();  // an ODE assertion ends the rollout with its reason, not SIGABRT
+    dInitODE2(0);
+  });
   dAllocateODEDataForThread(dAllocateMaskAll);
 }
 

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/sim/physical_ranges.hpp"
 
 namespace cpgmatch::sim {
 namespace {
@@ -215,6 +216,10 @@ MortiModel planar_leg_model(const RobotDescription& robot) {
   m.foot_sensor = {robot.foot_sensor.sensitivity, robot.foot_sensor.time_constant_s};
   m.physics_rate_hz = robot.physics_rate_hz;
   m.gravity_m_s2 = robot.gravity_m_s2;
+  // The same physical ranges as a model file's (physical_ranges.hpp): no absurd value reaches ODE.
+  if (const auto problem = check_physical_ranges(m)) {
+    refuse(robot, fmt::format("{}.{}: {}", problem->section, problem->key, problem->message));
+  }
   return m;
 }
 

@@ -10,8 +10,30 @@
 
 namespace cpgmatch::analysis {
 
+study::StudyConfig stored_study_config(const study::StoredStudy& stored) {
+  try {
+    return study::load_study_config_text(stored.config_yaml, stored.source_name);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(fmt::format("the store's copy of study {} (submitted from {}) is damaged: {}",
+                                         stored.study_id, stored.source_name, e.what()));
+  }
+}
+
+void require_every_trial_readable(const std::vector<study::StoredStudy>& studies, const std::string& store_path) {
+  std::vector<std::string> bad;
+  for (const auto& s : studies) {
+    for (const auto& why : s.unreadable_trials) bad.push_back(fmt::format("study {} {}", s.study_id, why));
+  }
+  if (bad.empty()) return;
+  std::string list;
+  for (const auto& b : bad) list += "\n  " + b;
+  throw std::runtime_error(fmt::format("study store {}: {} trial row(s) cannot be read; nothing was exported or "
+                                       "reported (`cpgmatch store check --store {}` checks the whole file):{}",
+                                       store_path, bad.size(), store_path, list));
+}
+
 StudyTrials trials_from_stored_study(const study::StoredStudy& stored) {
-  const study::StudyConfig cfg = study::load_study_config_text(stored.config_yaml, stored.source_name);
+  const study::StudyConfig cfg = stored_study_config(stored);
   StudyTrials s;
   s.name = stored.name;
   s.study_id = stored.study_id;
@@ -48,18 +70,20 @@ StudyTrials trials_from_stored_study(const study::StoredStudy& stored) {
 }
 
 study::StoredStudy load_stored_study(const std::string& store_path, int study_id) {
-  if (!std::filesystem::is_regular_file(store_path)) {
+  if (!std::filesystem::exists(store_path)) {
     throw InputError(fmt::format("--store '{}': no such study store", store_path));
   }
-  const study::StudyStore store(store_path);
-  if (study_id > 0) {
-    auto s = store.load(study_id);
-    if (!s) throw InputError(fmt::format("--study {}: no such study in {}", study_id, store_path));
-    return *s;
-  }
+  const study::StudyStore store(store_path, study::kReadOnly);
   auto all = store.load_all();
   if (all.empty()) throw InputError(fmt::format("--store '{}': the store holds no study", store_path));
-  return all.back();
+  study::StoredStudy chosen = all.back();
+  if (study_id > 0) {
+    const auto it = std::find_if(all.begin(), all.end(), [&](const auto& s) { return s.study_id == study_id; });
+    if (it == all.end()) throw InputError(fmt::format("--study {}: no such study in {}", study_id, store_path));
+    chosen = *it;
+  }
+  require_every_trial_readable({chosen}, store_path);
+  return chosen;
 }
 
 }  // namespace cpgmatch::analysis

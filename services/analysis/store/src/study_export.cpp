@@ -1,4 +1,5 @@
 #include "cpgmatch/analysis/study_export.hpp"
+#include "cpgmatch/analysis/stored_study_trials.hpp"
 
 #include <cmath>
 #include <set>
@@ -50,7 +51,7 @@ std::string source_of(const study::StoredTrial& t, int initial_points) {
 }  // namespace
 
 ExportedStudy export_study(const study::StoredStudy& stored) {
-  const study::StudyConfig cfg = study::load_study_config_text(stored.config_yaml, stored.source_name);
+  const study::StudyConfig cfg = stored_study_config(stored);  // a damaged text blames the store
   ExportedStudy s;
   s.study_id = stored.study_id;
   s.name = stored.name;

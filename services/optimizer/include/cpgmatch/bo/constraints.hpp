@@ -14,7 +14,10 @@
 // any other name (a fixed or base parameter) the constant value it has in the study.
 #pragma once
 
+#include <functional>
 #include <map>
+#include <optional>
+#include <utility>
 #include <memory>
 #include <optional>
 #include <set>
@@ -50,6 +53,13 @@ class Constraint {
   // How far inside the constraint `values` are (>= 0: satisfied): rhs - lhs for <=, lhs - rhs for >=, in
   // the expression's units. Throws std::out_of_range for a name `values` lacks.
   double slack(const std::map<std::string, double>& values) const;
+
+  // A division whose divisor can be 0 (or is not finite) for some values of the names, each name in its
+  // [low, high] from `range_of` (interval arithmetic: conservative, so `a / (b - b)` is refused too); or
+  // nothing. Such a constraint is refused at submit: its value would be inf or NaN there, and a NaN
+  // silently made the point infeasible. Example: "divides by a term that ranges over [-0.3, 0.3]".
+  std::optional<std::string> division_by_zero(
+      const std::function<std::pair<double, double>(const std::string&)>& range_of) const;
 
   // The parsed expression tree (immutable, shared by copies). A name is bound to a dimension index or
   // replaced by its constant value when a ParameterConstraints is made.

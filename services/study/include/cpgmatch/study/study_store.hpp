@@ -96,13 +96,30 @@ struct StoredStudy {
   nlohmann::json model_state;      // the optimizer's saved state (null: none saved, e.g. an older store)
   nlohmann::json hardware_model_state;  // its bo::HardwareOptimizer's (null: none, or no hardware model)
   std::string load_error;          // non-empty: a row of this study could not be read (its trials are incomplete)
+  // Every trial row of this study that could not be read, as "trial N: why" (load_error is the first).
+  std::vector<std::string> unreadable_trials;
   StoredSpec spec;
 };
 
+// The store's schema version (PRAGMA user_version), set by the service when it opens or migrates a store.
+// A store of a newer version is refused with both versions named: this program would misread it. 0: a store
+// written before versions (read as version 1, which it is).
+inline constexpr int kStoreSchemaVersion = 1;
+
+// Opens a store for reading only (export, report, analyze, plot, calibrate, store check): SQLite's read-only
+// mode, so nothing is ever created, migrated or written.
+struct ReadOnly {};
+inline constexpr ReadOnly kReadOnly{};
+
 class StudyStore {
  public:
-  // Opens or creates the store; throws std::runtime_error naming the path on failure.
+  // Opens or creates the store; throws std::runtime_error naming the path on failure, InputError for a file
+  // that is not a cpgmatch store (an SQLite database with other tables, or not SQLite) or of a newer schema.
   explicit StudyStore(const std::string& path, Durability durability = Durability::kNormal);
+  // Opens an existing store read-only; throws InputError naming the path when it is missing, not a regular
+  // file, not a cpgmatch store (an empty file is not one) or of a newer schema, and std::runtime_error when
+  // SQLite's quick_check finds it damaged.
+  StudyStore(const std::string& path, ReadOnly);
   ~StudyStore();
   StudyStore(const StudyStore&) = delete;
   StudyStore& operator=(const StudyStore&) = delete;
@@ -165,6 +182,9 @@ class StudyStore {
   // std::runtime_error naming the trial when a stored trace is unreadable.
   std::vector<StoredTrace> load_traces(int study_id) const;
 
+  // `PRAGMA integrity_check`: "ok", or SQLite's list of what is damaged (pages, indexes, constraints).
+  std::string integrity_check() const;
+
   std::vector<StoredStudy> load_all() const;
   std::optional<StoredStudy> load(int study_id) const;
   const std::string& path() const { return path_; }
@@ -178,6 +198,7 @@ class StudyStore {
   void add_column_if_missing(const std::string& table, const std::string& column, const std::string& declaration);
   std::uint64_t read_or_make_store_id();
   void create_trace_table();
+  void check_schema() const;  // InputError unless a cpgmatch store this program can read
   std::string path_;
   sqlite3* db_ = nullptr;
   std::uint64_t store_id_ = 0;
