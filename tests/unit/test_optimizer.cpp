@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "cpgmatch/bo/model_state_json.hpp"
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/bo/test_functions.hpp"
 #include "cpgmatch/errors.hpp"
@@ -135,6 +136,8 @@ double step_from_the_pending_point_of_the_recorded_walk(LiarStrategy liar) {
   o.seed = 3;
   o.budget = 150;
   o.liar = liar;
+  // The recorded study re-optimised the hyperparameters at every tell: its model at trial 110 is that one.
+  o.hyperparameter_growth = 0.0;
   BayesianOptimizer opt = BayesianOptimizer::rebuild(space, o, {trials.begin(), trials.begin() + 110});
   const Eigen::VectorXd& pending = trials[110].x;
   return (space.to_unit(opt.ask(1, {pending})[0]) - space.to_unit(pending)).norm();
@@ -284,6 +287,53 @@ TEST(Optimizer, RestoringFromASavedModelStateIsExactWithoutRefitting) {
   ModelState too_many = opt.model_state();
   too_many.observations = 31;
   EXPECT_THROW(BayesianOptimizer::restore(tf.space, o, opt.observations(), too_many), InputError);
+}
+
+TEST(Optimizer, HyperparametersHeldBetweenOptimisationsRestoreExactlyAndTheScheduleCarriesOn) {
+  // hyperparameter_growth 0.25: re-optimised once the model grew by a quarter, refactorised in between.
+  // A state saved between two optimisations restores an optimizer that proposes bit for bit the same and
+  // re-optimises at the same tell as the uninterrupted one; a state from before the schedule (no
+  // optimised_observations) is still read and restores the same next proposal.
+  const TestFunction tf = test_function("hartmann3");
+  OptimizerOptions o;
+  o.initial_points = 6;
+  o.seed = 12;
+  o.hyperparameter_growth = 0.25;
+  BayesianOptimizer opt(tf.space, o);
+  for (int i = 0; i < 27; ++i) {
+    const auto x = opt.ask(1)[0];
+    opt.tell(x, tf.f(x));
+  }
+  const ModelState state = opt.model_state();
+  // Fits after 6, 7, 8, 10, 12, 15, 18, 22, 27 observations: 9 of 22 fits optimised.
+  EXPECT_EQ(state.fits, 9);
+  EXPECT_EQ(state.optimised_observations, 27);
+  const auto x = opt.ask(1)[0];
+  opt.tell(x, tf.f(x));  // held: the next optimisation is at 33
+  const ModelState held = opt.model_state();
+  EXPECT_EQ(held.fits, 9);
+  EXPECT_EQ(held.optimised_observations, 27);
+  EXPECT_EQ(held.fitted_observations, 28);
+  EXPECT_NE(GpHyperparameters::unpack(held.hyperparameters).log_noise, 0.0);
+
+  const ModelState saved = model_state_from_json(model_state_to_json(held));
+  nlohmann::json old_format = model_state_to_json(held);
+  old_format.erase("optimised_observations");
+  const ModelState old_state = model_state_from_json(old_format);
+  EXPECT_EQ(old_state.optimised_observations, -1);
+  BayesianOptimizer restored = BayesianOptimizer::restore(tf.space, o, opt.observations(), saved);
+  BayesianOptimizer from_old = BayesianOptimizer::restore(tf.space, o, opt.observations(), old_state);
+  EXPECT_EQ(restored.ask(1)[0], opt.ask(1)[0]);
+  EXPECT_EQ(from_old.ask(1)[0], opt.ask(1)[0]);
+  for (int i = 0; i < 6; ++i) {
+    const auto p = opt.ask(1)[0];
+    ASSERT_EQ(restored.ask(1)[0], p) << i;
+    opt.tell(p, tf.f(p));
+    restored.tell(p, tf.f(p));
+  }
+  EXPECT_EQ(opt.model_state().fits, 10);  // optimised again at 33
+  EXPECT_EQ(restored.model_state().fits, 10);
+  EXPECT_EQ(restored.ask(2), opt.ask(2));
 }
 
 TEST(Optimizer, ABatchOfResultsIsFittedOnceAndRestoresExactly) {

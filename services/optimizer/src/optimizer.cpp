@@ -56,6 +56,9 @@ void OptimizerOptions::validate() const {
   if (acquisition_candidates < 1) throw InputError("acquisition_candidates must be >= 1");
   if (acquisition_local_starts < 0) throw InputError("acquisition_local_starts must be >= 0");
   if (hyperparameter_restart_every < 1) throw InputError("hyperparameter_restart_every must be >= 1");
+  if (!(hyperparameter_growth >= 0.0) || !std::isfinite(hyperparameter_growth)) {
+    throw InputError("hyperparameter_growth must be a finite number >= 0");
+  }
 }
 
 Eigen::Vector3d HedgeState::probabilities() const {
@@ -159,21 +162,37 @@ void BayesianOptimizer::record(Observation obs) {
   if (model_due()) refit();
 }
 
+bool BayesianOptimizer::hyperparameters_due() const {
+  if (!have_hyper_) return true;
+  const int n = static_cast<int>(observations_.size());
+  const int step = std::max(1, static_cast<int>(std::floor(options_.hyperparameter_growth * optimised_observations_)));
+  return n >= optimised_observations_ + step;
+}
+
 void BayesianOptimizer::refit() {
   const Dataset data = dataset();
   auto fit_rng = rng_for(observations_.size(), kFitPurpose);
-  GpOptions gp_options = options_.gp;
-  const bool restart = !have_hyper_ || fits_ % options_.hyperparameter_restart_every == 0;
-  if (!restart) {
-    gp_options.random_restarts = 0;
-    gp_options.max_evaluations = options_.hyperparameter_warm_evaluations;
+  const bool optimise = hyperparameters_due();
+  if (optimise) {
+    GpOptions gp_options = options_.gp;
+    const bool restart = !have_hyper_ || fits_ % options_.hyperparameter_restart_every == 0;
+    if (!restart) {
+      gp_options.random_restarts = 0;
+      gp_options.max_evaluations = options_.hyperparameter_warm_evaluations;
+    }
+    gp_ = GaussianProcess(gp_options);
+    gp_.fit(data.X, data.y, true, fit_rng, have_hyper_ ? &last_hyper_ : nullptr);
+    last_hyper_ = gp_.hyperparameters();
+    have_hyper_ = true;
+    optimised_observations_ = static_cast<int>(observations_.size());
+  } else {
+    // The hyperparameters held: one factorisation (what restore() does with the saved ones, bit for bit).
+    gp_ = GaussianProcess(options_.gp);
+    gp_.fit(data.X, data.y, false, fit_rng, &last_hyper_);
   }
-  gp_ = GaussianProcess(gp_options);
-  gp_.fit(data.X, data.y, true, fit_rng, have_hyper_ ? &last_hyper_ : nullptr);
-  last_hyper_ = gp_.hyperparameters();
-  have_hyper_ = true;
-  fit_fall_model(true);
-  ++fits_;
+  // A first fall has no fall hyperparameters to hold: they are optimised whatever the schedule.
+  fit_fall_model(optimise || !have_fall_hyper_);
+  if (optimise) ++fits_;
   fitted_observations_ = static_cast<int>(observations_.size());
 
   // gp_hedge: reward each acquisition by minus the new model's mean at its previous proposal
@@ -558,6 +577,7 @@ ModelState BayesianOptimizer::model_state() const {
   if (have_hyper_) s.hyperparameters = last_hyper_.pack();
   s.hedge_gains = hedge_.gains;
   s.fitted_observations = fitted_observations_;
+  s.optimised_observations = optimised_observations_;
   s.have_fall_hyperparameters = have_fall_hyper_;
   if (have_fall_hyper_) s.fall_hyperparameters = last_fall_hyper_.pack();
   return s;
@@ -580,6 +600,8 @@ BayesianOptimizer BayesianOptimizer::restore(SearchSpace space, OptimizerOptions
   }
   opt.fits_ = state.fits;
   opt.fitted_observations_ = state.fitted_observations >= 0 ? state.fitted_observations : state.observations;
+  // A store from before the schedule optimised at every fit: its latest optimisation is its latest fit.
+  opt.optimised_observations_ = state.optimised_observations >= 0 ? state.optimised_observations : opt.fitted_observations_;
   opt.have_hyper_ = state.have_hyperparameters;
   if (opt.have_hyper_) opt.last_hyper_ = GpHyperparameters::unpack(state.hyperparameters);
   opt.hedge_.gains = state.hedge_gains;

@@ -79,7 +79,12 @@ struct OptimizerOptions {
   bool fall_model = false;
   std::uint64_t seed = 0;
   GpOptions gp;
-  // Hyperparameters: warm-started L-BFGS at every fit; random restarts at every k-th fit as well.
+  // Hyperparameters: re-optimised (warm-started L-BFGS) once the model has grown by this fraction of the
+  // points it had at the last optimisation (at least one point: below 1/growth points, at every tell);
+  // in between, the model is refactorised with the hyperparameters held, O(n^3/3) instead of ~20
+  // likelihood evaluations of O(n^3) each. At 150 points: every 7th tell. 0: at every tell (the old
+  // schedule). Random restarts at every k-th optimisation as well.
+  double hyperparameter_growth = 0.05;
   int hyperparameter_restart_every = 10;
   int hyperparameter_warm_evaluations = 20;  // L-BFGS budget of a warm-started fit (restart fits: gp.max_evaluations)
   // Observations after which no more points will be asked for (a study's budget; 0: no limit). The model
@@ -121,6 +126,9 @@ struct ModelState {
   // are fitted as they would have been had the budget been larger from the start.
   int fitted_observations = -1;
   int fits = 0;                         // hyperparameter fits so far (sets when random restarts happen)
+  // Observations at the latest hyperparameter optimisation (sets when the next one happens). -1: not known
+  // (a store older than the schedule, when every fit optimised: fitted_observations is that count).
+  int optimised_observations = -1;
   bool have_hyperparameters = false;
   Eigen::VectorXd hyperparameters;      // GpHyperparameters::pack() of the latest fit
   Eigen::Vector3d hedge_gains = Eigen::Vector3d::Zero();
@@ -185,6 +193,8 @@ class BayesianOptimizer {
   Dataset dataset() const;
   void record(Observation obs);
   void refit();
+  // Whether this refit re-optimises the hyperparameters (OptimizerOptions::hyperparameter_growth).
+  bool hyperparameters_due() const;
   // Fits the fall model to the successful observations (fall_model on); optimise = false refactorises
   // with last_fall_hyper_.
   void fit_fall_model(bool optimise);
@@ -233,6 +243,7 @@ class BayesianOptimizer {
   bool have_hyper_ = false;
   int fits_ = 0;
   int fitted_observations_ = 0;  // observations the latest fit (or restore's factorisation) covered
+  int optimised_observations_ = 0;  // observations at the latest hyperparameter optimisation
   HedgeState hedge_;
   FallModel fall_;
   GpHyperparameters last_fall_hyper_;
