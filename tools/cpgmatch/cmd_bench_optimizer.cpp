@@ -34,7 +34,8 @@ void add_bench_optimizer_command(CLI::App& app) {
   flags->add_to(cmd);
   cmd->callback([flags, function] {
     const bo::TestFunction tf = bo::test_function(*function);
-    const bo::OptimizerOptions options = flags->to_options();
+    bo::OptimizerOptions options = flags->to_options();
+    options.budget = flags->budget;  // as a study does: no model fit after the last result
     // A log-modelled cost must stay > 0: refused before the run for a function whose minimum is not (it
     // used to stop mid-run with exit 2 at the first non-positive value).
     if (options.cost_transform == bo::CostTransform::kLog && !(tf.global_minimum > 0.0)) {
@@ -67,20 +68,26 @@ void add_bench_optimizer_command(CLI::App& app) {
       if (n > 1 || ask_ms > 1000.0) {
         progress.update(done, best, fmt::format("asked {} points in {:.2f} s", n, ask_ms / 1e3));
       }
+      // A batch's results are told together (one model update for all, as the service does with the
+      // reports that arrive while its model is busy); one point is told alone, as always.
+      std::vector<bo::Observation> results;
       for (const auto& x : points) {
         const double y = tf.f(x);
-        const auto t1 = std::chrono::steady_clock::now();
-        const double c1 = thread_cpu_ms();
-        opt.tell(x, y);
-        last_tell_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
-        last_tell_cpu_ms = thread_cpu_ms() - c1;
+        results.push_back({x, y, false});
         if (y < best) {
           best = y;
           best_index = done;
         }
         ++done;
-        progress.update(done, best, fmt::format("y {:.6g}", y));
+        if (n == 1) progress.update(done, best, fmt::format("y {:.6g}", y));
       }
+      const auto t1 = std::chrono::steady_clock::now();
+      const double c1 = thread_cpu_ms();
+      if (results.size() == 1) opt.tell(results[0].x, results[0].y);
+      else opt.tell_batch(results);
+      last_tell_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+      last_tell_cpu_ms = thread_cpu_ms() - c1;
+      if (n > 1) progress.update(done, best, fmt::format("told {} results in {:.2f} s", n, last_tell_ms / 1e3));
     }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (flags->json) {

@@ -87,6 +87,19 @@ struct OptimizerOptions {
   double hyperparameter_growth = 0.05;
   int hyperparameter_restart_every = 10;
   int hyperparameter_warm_evaluations = 20;  // L-BFGS budget of a warm-started fit (restart fits: gp.max_evaluations)
+  // Large studies (issue 36). Past hyperparameter_max_points model points the hyperparameters are
+  // optimised on that many points nearest the best one (O(300^3) per likelihood evaluation instead of
+  // O(n^3)), then used, rescaled to the whole data's standardisation, for the model of every point.
+  int hyperparameter_max_points = 300;
+  // Past max_model_points observations the model is local (a trust region, as in TuRBO, Eriksson et al.
+  // 2019): the exact GP of the max_model_points observations nearest the best one, and the acquisition
+  // searched only within the box of those points (elsewhere the data it does not hold is known already).
+  int max_model_points = 1000;
+  // A batch refines (L-BFGS) the acquisition for its first batch_refined_points points; the rest take
+  // the best unused candidate of the batch's candidate set (with the believer's lies each one pushes the
+  // next away), which holds 10 per point asked for (at least acquisition_candidates). A batch of up to
+  // this many points (the paper's study) is proposed exactly as before. 0: every point refined.
+  int batch_refined_points = 10;
   // Observations after which no more points will be asked for (a study's budget; 0: no limit). The model
   // is not refitted for the last one: a fit nobody will ask is pure cost (minutes on thousands of points).
   int budget = 0;
@@ -191,6 +204,10 @@ class BayesianOptimizer {
     Eigen::VectorXd y;
   };
   Dataset dataset() const;
+  // What the GP models: dataset(), or past max_model_points its rows nearest the best (the local model).
+  Dataset model_dataset() const;
+  // The model's region for the data it models: the unit cube, or the local model's box.
+  void set_region(const Dataset& model_data);
   void record(Observation obs);
   void refit();
   // Whether this refit re-optimises the hyperparameters (OptimizerOptions::hyperparameter_growth).
@@ -211,8 +228,12 @@ class BayesianOptimizer {
     Eigen::MatrixXd C;  // d x m, unit cube
     std::vector<CandidatePosterior> blocks;
     Eigen::VectorXd p_safe;
+    std::vector<bool> taken;  // chosen by best_candidate() in this ask
   };
-  Candidates draw_candidates(std::mt19937_64& rng) const;
+  // m random points of the model's region (the unit cube, or the local model's box), with their posterior.
+  Candidates draw_candidates(std::mt19937_64& rng, int m) const;
+  // The untaken candidate with the lowest acquisition `a` on the current (lied-to) model, marked taken.
+  Eigen::VectorXd best_candidate(Acquisition a, double y_best, Candidates& c) const;
   // The posterior of c.C on the current GP, from scratch.
   void compute_posterior(Candidates& c) const;
   // After points were appended to the GP (append_fixed() returned true): the posterior's new rows only.
@@ -251,6 +272,7 @@ class BayesianOptimizer {
   double fall_level_ = 0.0;  // mean model-unit cost of the observed falls
   std::vector<Eigen::VectorXd> next_proposals_;  // unit cube; per base acquisition (EI, LCB, PI) or one
   int threads_ = 1;
+  Eigen::VectorXd region_lo_, region_hi_;  // unit cube; where the acquisition is searched (set_region)
 };
 
 }  // namespace cpgmatch::bo
