@@ -98,6 +98,82 @@ TEST(Optimizer, BatchPointsAreDistinctAndInBounds) {
   }
 }
 
+TEST(Optimizer, ALargeBatchIsDistinctInBoundsAndTheSameForTheSameSeed) {
+  // Past batch_refined_points, a batch's points are the best untaken candidates of one candidate set: they
+  // are still distinct, new, in the box, and the same for the same seed (and for a restored optimizer).
+  const TestFunction tf = test_function("hartmann3");
+  OptimizerOptions o;
+  o.initial_points = 6;
+  o.seed = 2;
+  o.batch_refined_points = 4;
+  BayesianOptimizer opt(tf.space, o);
+  for (const auto& x : opt.ask(6)) opt.tell(x, tf.f(x));
+  const auto batch = opt.ask(40);
+  ASSERT_EQ(batch.size(), 40u);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    EXPECT_NO_THROW(tf.space.check_point(batch[i]));
+    for (std::size_t j = 0; j < i; ++j) EXPECT_GT((batch[i] - batch[j]).norm(), 1e-6) << i << " " << j;
+    for (const auto& obs : opt.observations()) EXPECT_GT((batch[i] - obs.x).norm(), 1e-6) << i;
+  }
+  BayesianOptimizer again(tf.space, o);
+  for (const auto& x : again.ask(6)) again.tell(x, tf.f(x));
+  EXPECT_EQ(again.ask(40), batch);
+  BayesianOptimizer restored = BayesianOptimizer::restore(tf.space, o, opt.observations(), opt.model_state());
+  EXPECT_EQ(restored.ask(40), batch);
+  // The first batch_refined_points are proposed as without the option (refined every one).
+  OptimizerOptions all_refined = o;
+  all_refined.batch_refined_points = 0;
+  BayesianOptimizer refined = BayesianOptimizer::restore(tf.space, all_refined, opt.observations(), opt.model_state());
+  const auto refined_batch = refined.ask(40);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(refined_batch[i], batch[i]) << i;
+}
+
+TEST(Optimizer, PastMaxModelPointsTheModelIsLocalAndRestoresExactly) {
+  // max_model_points 20: the GP holds the 20 observations nearest the best, its hyperparameters come from
+  // the 12 nearest (hyperparameter_max_points), and the next proposal lies in the box of those 20 (plus
+  // a tenth on each side). A restored optimizer proposes the same.
+  const TestFunction tf = test_function("hartmann3");
+  OptimizerOptions o;
+  o.initial_points = 10;
+  o.seed = 7;
+  o.max_model_points = 20;
+  o.hyperparameter_max_points = 12;
+  BayesianOptimizer opt(tf.space, o);
+  for (int i = 0; i < 4; ++i) {
+    std::vector<Observation> results;
+    for (const auto& x : opt.ask(8)) results.push_back({x, tf.f(x), false});
+    opt.tell_batch(results);
+  }
+  ASSERT_EQ(opt.observations().size(), 32u);
+  EXPECT_EQ(opt.model().num_points(), 20);
+  // The 20 nearest the best, by hand.
+  const Observation best = *opt.best();
+  std::vector<std::pair<double, int>> by_distance;
+  for (int i = 0; i < 32; ++i) {
+    const Eigen::VectorXd u = tf.space.to_unit(opt.observations()[i].x) - tf.space.to_unit(best.x);
+    by_distance.push_back({u.squaredNorm(), i});
+  }
+  std::stable_sort(by_distance.begin(), by_distance.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  Eigen::VectorXd lo = Eigen::VectorXd::Constant(3, 1.0), hi = Eigen::VectorXd::Zero(3);
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::VectorXd u = tf.space.to_unit(opt.observations()[by_distance[k].second].x);
+    lo = lo.cwiseMin(u);
+    hi = hi.cwiseMax(u);
+  }
+  const Eigen::VectorXd pad = (0.1 * (hi - lo)).cwiseMax(1e-3);
+  const Eigen::VectorXd next = tf.space.to_unit(opt.ask(1)[0]);
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_GE(next[j], std::max(0.0, lo[j] - pad[j]) - 1e-12) << j;
+    EXPECT_LE(next[j], std::min(1.0, hi[j] + pad[j]) + 1e-12) << j;
+  }
+  // The region is narrower than the cube in some dimension (otherwise the check above says nothing).
+  EXPECT_LT((hi - lo).minCoeff(), 0.9);
+  BayesianOptimizer restored = BayesianOptimizer::restore(tf.space, o, opt.observations(), opt.model_state());
+  EXPECT_EQ(restored.model().num_points(), 20);
+  EXPECT_EQ(restored.ask(1)[0], opt.ask(1)[0]);
+  EXPECT_EQ(restored.ask(5), opt.ask(5));
+}
+
 TEST(Optimizer, PendingPointsAreAvoided) {
   const TestFunction tf = test_function("branin");
   OptimizerOptions o;

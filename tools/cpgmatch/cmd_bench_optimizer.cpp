@@ -32,10 +32,25 @@ void add_bench_optimizer_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("bench-optimizer", "run the optimizer on a standard test function");
   cmd->add_option("--function", *function, "branin | hartmann3 | hartmann6 | ackley | rosenbrock | levy | styblinski-tang | ackley20 | levy20");
   flags->add_to(cmd);
-  cmd->callback([flags, function] {
+  // The large-study knobs (OptimizerOptions), to measure what each one buys; the defaults are the library's.
+  auto knobs = std::make_shared<bo::OptimizerOptions>();
+  cmd->add_option("--hyperparameter-growth", knobs->hyperparameter_growth,
+                  "re-optimise the GP's hyperparameters once the data grew by this fraction (0: every tell)");
+  cmd->add_option("--hyperparameter-max-points", knobs->hyperparameter_max_points,
+                  "optimise the hyperparameters on at most this many points nearest the best (0: all)");
+  cmd->add_option("--max-model-points", knobs->max_model_points,
+                  "past this many observations the model is local: the ones nearest the best (0: all)");
+  cmd->add_option("--batch-refined-points", knobs->batch_refined_points,
+                  "points of a batch whose acquisition is refined; the rest are Thompson draws (0: all refined)");
+  cmd->callback([flags, function, knobs] {
     const bo::TestFunction tf = bo::test_function(*function);
     bo::OptimizerOptions options = flags->to_options();
     options.budget = flags->budget;  // as a study does: no model fit after the last result
+    options.hyperparameter_growth = knobs->hyperparameter_growth;
+    options.hyperparameter_max_points = knobs->hyperparameter_max_points;
+    options.max_model_points = knobs->max_model_points;
+    options.batch_refined_points = knobs->batch_refined_points;
+    options.validate();
     // A log-modelled cost must stay > 0: refused before the run for a function whose minimum is not (it
     // used to stop mid-run with exit 2 at the first non-positive value).
     if (options.cost_transform == bo::CostTransform::kLog && !(tf.global_minimum > 0.0)) {

@@ -88,17 +88,18 @@ struct OptimizerOptions {
   int hyperparameter_restart_every = 10;
   int hyperparameter_warm_evaluations = 20;  // L-BFGS budget of a warm-started fit (restart fits: gp.max_evaluations)
   // Large studies (issue 36). Past hyperparameter_max_points model points the hyperparameters are
-  // optimised on that many points nearest the best one (O(300^3) per likelihood evaluation instead of
-  // O(n^3)), then used, rescaled to the whole data's standardisation, for the model of every point.
+  // optimised on that many points spread evenly over the data (O(300^3) per likelihood evaluation instead
+  // of O(n^3)), then used, rescaled to the whole data's standardisation, for the model of every point.
   int hyperparameter_max_points = 300;
   // Past max_model_points observations the model is local (a trust region, as in TuRBO, Eriksson et al.
   // 2019): the exact GP of the max_model_points observations nearest the best one, and the acquisition
   // searched only within the box of those points (elsewhere the data it does not hold is known already).
   int max_model_points = 1000;
-  // A batch refines (L-BFGS) the acquisition for its first batch_refined_points points; the rest take
-  // the best unused candidate of the batch's candidate set (with the believer's lies each one pushes the
-  // next away), which holds 10 per point asked for (at least acquisition_candidates). A batch of up to
-  // this many points (the paper's study) is proposed exactly as before. 0: every point refined.
+  // A batch refines (L-BFGS) the acquisition for its first batch_refined_points points; the rest are
+  // Thompson draws: the untaken candidate of the batch's candidate set (10 per point asked for, at least
+  // acquisition_candidates) where a draw from the posterior marginals is lowest (the believer's lies
+  // shrink the spread around points already chosen). A batch of up to this many points (the paper's
+  // study) is proposed exactly as before. 0: every point refined.
   int batch_refined_points = 10;
   // Observations after which no more points will be asked for (a study's budget; 0: no limit). The model
   // is not refitted for the last one: a fit nobody will ask is pure cost (minutes on thousands of points).
@@ -232,8 +233,9 @@ class BayesianOptimizer {
   };
   // m random points of the model's region (the unit cube, or the local model's box), with their posterior.
   Candidates draw_candidates(std::mt19937_64& rng, int m) const;
-  // The untaken candidate with the lowest acquisition `a` on the current (lied-to) model, marked taken.
-  Eigen::VectorXd best_candidate(Acquisition a, double y_best, Candidates& c) const;
+  // The untaken candidate where a draw from the current (lied-to) model's posterior marginals is lowest
+  // (Thompson sampling, fall-weighted like LCB), marked taken.
+  Eigen::VectorXd thompson_candidate(Candidates& c, std::mt19937_64& rng) const;
   // The posterior of c.C on the current GP, from scratch.
   void compute_posterior(Candidates& c) const;
   // After points were appended to the GP (append_fixed() returned true): the posterior's new rows only.
