@@ -11,6 +11,27 @@ namespace {
 
 double matern52(double r) { return (1 + std::sqrt(5.0) * r + 5.0 / 3.0 * r * r) * std::exp(-std::sqrt(5.0) * r); }
 
+TEST(Kernel, TheMaternPolicysValueAndSlopeMatchTheFormulaAndItsDerivative) {
+  // The one place the kernel is written: value(r) is Matern 5/2, slope(r) = -(1/r) dvalue/dr (every
+  // gradient of every GP is built on it), and value_and_slope() gives the same two.
+  Eigen::ArrayXd r(5);
+  r << 0.0, 0.05, 0.4, 1.3, 4.0;
+  const Eigen::ArrayXd value = Matern52::value(r), slope = Matern52::slope(r);
+  Eigen::ArrayXd both_value, both_slope;
+  Matern52::value_and_slope(r, both_value, both_slope);
+  const double h = 1e-6;
+  for (int i = 0; i < r.size(); ++i) {
+    EXPECT_NEAR(value[i], matern52(r[i]), 1e-14) << r[i];
+    EXPECT_NEAR(both_value[i], value[i], 1e-15) << r[i];
+    EXPECT_NEAR(both_slope[i], slope[i], 1e-15) << r[i];
+    if (r[i] > 0.0) {
+      const double dvalue = (matern52(r[i] + h) - matern52(r[i] - h)) / (2 * h);
+      EXPECT_NEAR(slope[i], -dvalue / r[i], 1e-7) << r[i];
+    }
+  }
+  EXPECT_NEAR(slope[0], 5.0 / 3.0, 1e-15);  // the limit at r = 0
+}
+
 TEST(GaussianProcess, PosteriorMatchesHandComputedTwoPointCase) {
   // Two 1-D points, amplitude 1, length scale 0.5, noise 1e-4; y = [1, -1] has mean 0 and std 1, so the
   // standardised targets equal the raw ones.

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "cpgmatch/bo/model_state_json.hpp"
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/bo/test_functions.hpp"
 #include "cpgmatch/errors.hpp"
@@ -97,6 +98,82 @@ TEST(Optimizer, BatchPointsAreDistinctAndInBounds) {
   }
 }
 
+TEST(Optimizer, ALargeBatchIsDistinctInBoundsAndTheSameForTheSameSeed) {
+  // Past batch_refined_points, a batch's points are the best untaken candidates of one candidate set: they
+  // are still distinct, new, in the box, and the same for the same seed (and for a restored optimizer).
+  const TestFunction tf = test_function("hartmann3");
+  OptimizerOptions o;
+  o.initial_points = 6;
+  o.seed = 2;
+  o.batch_refined_points = 4;
+  BayesianOptimizer opt(tf.space, o);
+  for (const auto& x : opt.ask(6)) opt.tell(x, tf.f(x));
+  const auto batch = opt.ask(40);
+  ASSERT_EQ(batch.size(), 40u);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    EXPECT_NO_THROW(tf.space.check_point(batch[i]));
+    for (std::size_t j = 0; j < i; ++j) EXPECT_GT((batch[i] - batch[j]).norm(), 1e-6) << i << " " << j;
+    for (const auto& obs : opt.observations()) EXPECT_GT((batch[i] - obs.x).norm(), 1e-6) << i;
+  }
+  BayesianOptimizer again(tf.space, o);
+  for (const auto& x : again.ask(6)) again.tell(x, tf.f(x));
+  EXPECT_EQ(again.ask(40), batch);
+  BayesianOptimizer restored = BayesianOptimizer::restore(tf.space, o, opt.observations(), opt.model_state());
+  EXPECT_EQ(restored.ask(40), batch);
+  // The first batch_refined_points are proposed as without the option (refined every one).
+  OptimizerOptions all_refined = o;
+  all_refined.batch_refined_points = 0;
+  BayesianOptimizer refined = BayesianOptimizer::restore(tf.space, all_refined, opt.observations(), opt.model_state());
+  const auto refined_batch = refined.ask(40);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(refined_batch[i], batch[i]) << i;
+}
+
+TEST(Optimizer, PastMaxModelPointsTheModelIsLocalAndRestoresExactly) {
+  // max_model_points 20: the GP holds the 20 observations nearest the best, its hyperparameters come from
+  // the 12 nearest (hyperparameter_max_points), and the next proposal lies in the box of those 20 (plus
+  // a tenth on each side). A restored optimizer proposes the same.
+  const TestFunction tf = test_function("hartmann3");
+  OptimizerOptions o;
+  o.initial_points = 10;
+  o.seed = 7;
+  o.max_model_points = 20;
+  o.hyperparameter_max_points = 12;
+  BayesianOptimizer opt(tf.space, o);
+  for (int i = 0; i < 4; ++i) {
+    std::vector<Observation> results;
+    for (const auto& x : opt.ask(8)) results.push_back({x, tf.f(x), false});
+    opt.tell_batch(results);
+  }
+  ASSERT_EQ(opt.observations().size(), 32u);
+  EXPECT_EQ(opt.model().num_points(), 20);
+  // The 20 nearest the best, by hand.
+  const Observation best = *opt.best();
+  std::vector<std::pair<double, int>> by_distance;
+  for (int i = 0; i < 32; ++i) {
+    const Eigen::VectorXd u = tf.space.to_unit(opt.observations()[i].x) - tf.space.to_unit(best.x);
+    by_distance.push_back({u.squaredNorm(), i});
+  }
+  std::stable_sort(by_distance.begin(), by_distance.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  Eigen::VectorXd lo = Eigen::VectorXd::Constant(3, 1.0), hi = Eigen::VectorXd::Zero(3);
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::VectorXd u = tf.space.to_unit(opt.observations()[by_distance[k].second].x);
+    lo = lo.cwiseMin(u);
+    hi = hi.cwiseMax(u);
+  }
+  const Eigen::VectorXd pad = (0.1 * (hi - lo)).cwiseMax(1e-3);
+  const Eigen::VectorXd next = tf.space.to_unit(opt.ask(1)[0]);
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_GE(next[j], std::max(0.0, lo[j] - pad[j]) - 1e-12) << j;
+    EXPECT_LE(next[j], std::min(1.0, hi[j] + pad[j]) + 1e-12) << j;
+  }
+  // The region is narrower than the cube in some dimension (otherwise the check above says nothing).
+  EXPECT_LT((hi - lo).minCoeff(), 0.9);
+  BayesianOptimizer restored = BayesianOptimizer::restore(tf.space, o, opt.observations(), opt.model_state());
+  EXPECT_EQ(restored.model().num_points(), 20);
+  EXPECT_EQ(restored.ask(1)[0], opt.ask(1)[0]);
+  EXPECT_EQ(restored.ask(5), opt.ask(5));
+}
+
 TEST(Optimizer, PendingPointsAreAvoided) {
   const TestFunction tf = test_function("branin");
   OptimizerOptions o;
@@ -135,6 +212,8 @@ double step_from_the_pending_point_of_the_recorded_walk(LiarStrategy liar) {
   o.seed = 3;
   o.budget = 150;
   o.liar = liar;
+  // The recorded study re-optimised the hyperparameters at every tell: its model at trial 110 is that one.
+  o.hyperparameter_growth = 0.0;
   BayesianOptimizer opt = BayesianOptimizer::rebuild(space, o, {trials.begin(), trials.begin() + 110});
   const Eigen::VectorXd& pending = trials[110].x;
   return (space.to_unit(opt.ask(1, {pending})[0]) - space.to_unit(pending)).norm();
@@ -284,6 +363,53 @@ TEST(Optimizer, RestoringFromASavedModelStateIsExactWithoutRefitting) {
   ModelState too_many = opt.model_state();
   too_many.observations = 31;
   EXPECT_THROW(BayesianOptimizer::restore(tf.space, o, opt.observations(), too_many), InputError);
+}
+
+TEST(Optimizer, HyperparametersHeldBetweenOptimisationsRestoreExactlyAndTheScheduleCarriesOn) {
+  // hyperparameter_growth 0.25: re-optimised once the model grew by a quarter, refactorised in between.
+  // A state saved between two optimisations restores an optimizer that proposes bit for bit the same and
+  // re-optimises at the same tell as the uninterrupted one; a state from before the schedule (no
+  // optimised_observations) is still read and restores the same next proposal.
+  const TestFunction tf = test_function("hartmann3");
+  OptimizerOptions o;
+  o.initial_points = 6;
+  o.seed = 12;
+  o.hyperparameter_growth = 0.25;
+  BayesianOptimizer opt(tf.space, o);
+  for (int i = 0; i < 27; ++i) {
+    const auto x = opt.ask(1)[0];
+    opt.tell(x, tf.f(x));
+  }
+  const ModelState state = opt.model_state();
+  // Fits after 6, 7, 8, 10, 12, 15, 18, 22, 27 observations: 9 of 22 fits optimised.
+  EXPECT_EQ(state.fits, 9);
+  EXPECT_EQ(state.optimised_observations, 27);
+  const auto x = opt.ask(1)[0];
+  opt.tell(x, tf.f(x));  // held: the next optimisation is at 33
+  const ModelState held = opt.model_state();
+  EXPECT_EQ(held.fits, 9);
+  EXPECT_EQ(held.optimised_observations, 27);
+  EXPECT_EQ(held.fitted_observations, 28);
+  EXPECT_NE(GpHyperparameters::unpack(held.hyperparameters).log_noise, 0.0);
+
+  const ModelState saved = model_state_from_json(model_state_to_json(held));
+  nlohmann::json old_format = model_state_to_json(held);
+  old_format.erase("optimised_observations");
+  const ModelState old_state = model_state_from_json(old_format);
+  EXPECT_EQ(old_state.optimised_observations, -1);
+  BayesianOptimizer restored = BayesianOptimizer::restore(tf.space, o, opt.observations(), saved);
+  BayesianOptimizer from_old = BayesianOptimizer::restore(tf.space, o, opt.observations(), old_state);
+  EXPECT_EQ(restored.ask(1)[0], opt.ask(1)[0]);
+  EXPECT_EQ(from_old.ask(1)[0], opt.ask(1)[0]);
+  for (int i = 0; i < 6; ++i) {
+    const auto p = opt.ask(1)[0];
+    ASSERT_EQ(restored.ask(1)[0], p) << i;
+    opt.tell(p, tf.f(p));
+    restored.tell(p, tf.f(p));
+  }
+  EXPECT_EQ(opt.model_state().fits, 10);  // optimised again at 33
+  EXPECT_EQ(restored.model_state().fits, 10);
+  EXPECT_EQ(restored.ask(2), opt.ask(2));
 }
 
 TEST(Optimizer, ABatchOfResultsIsFittedOnceAndRestoresExactly) {

@@ -35,12 +35,12 @@ Acquisition acquisition_from_string(std::string_view name) {
   throw InputError(fmt::format("unknown acquisition '{}' (known: gp_hedge, ei, pi, lcb)", name));
 }
 
-AcquisitionValue lower_confidence_bound(double mean, double std, double kappa) {
-  return {mean - kappa * std, 1.0, -kappa};
+AcquisitionValue LowerConfidenceBound::evaluate(double mean, double std, const AcquisitionParameters& q) {
+  return {mean - q.kappa * std, 1.0, -q.kappa};
 }
 
-AcquisitionValue negative_expected_improvement(double mean, double std, double y_best, double xi) {
-  const double improvement = y_best - xi - mean;
+AcquisitionValue ExpectedImprovement::evaluate(double mean, double std, const AcquisitionParameters& q) {
+  const double improvement = q.y_best - q.xi - mean;
   if (std <= 0.0) return {-std::max(improvement, 0.0), improvement > 0.0 ? 1.0 : 0.0, 0.0};
   const double z = improvement / std;
   const double cdf = normal_cdf(z), pdf = normal_pdf(z);
@@ -49,8 +49,8 @@ AcquisitionValue negative_expected_improvement(double mean, double std, double y
   return {-ei, cdf, -pdf};
 }
 
-AcquisitionValue negative_probability_of_improvement(double mean, double std, double y_best, double xi) {
-  const double improvement = y_best - xi - mean;
+AcquisitionValue ProbabilityOfImprovement::evaluate(double mean, double std, const AcquisitionParameters& q) {
+  const double improvement = q.y_best - q.xi - mean;
   if (std <= 0.0) return {improvement > 0.0 ? -1.0 : 0.0, 0.0, 0.0};
   const double z = improvement / std;
   const double pdf = normal_pdf(z);
@@ -58,33 +58,39 @@ AcquisitionValue negative_probability_of_improvement(double mean, double std, do
   return {-normal_cdf(z), pdf / std, pdf * z / std};
 }
 
+SafeAcquisitionValue LowerConfidenceBound::safe(double mean, double std, double p, double fall_level,
+                                                const AcquisitionParameters& q) {
+  const double bound = mean - q.kappa * std;
+  SafeAcquisitionValue out;
+  out.value = p * bound + (1.0 - p) * fall_level;
+  out.d_mean = p;
+  out.d_std = -q.kappa * p;
+  out.d_p = bound - fall_level;
+  return out;
+}
+
+AcquisitionValue lower_confidence_bound(double mean, double std, double kappa) {
+  return LowerConfidenceBound::evaluate(mean, std, {0.0, 0.0, kappa});
+}
+
+AcquisitionValue negative_expected_improvement(double mean, double std, double y_best, double xi) {
+  return ExpectedImprovement::evaluate(mean, std, {y_best, xi, 0.0});
+}
+
+AcquisitionValue negative_probability_of_improvement(double mean, double std, double y_best, double xi) {
+  return ProbabilityOfImprovement::evaluate(mean, std, {y_best, xi, 0.0});
+}
+
 AcquisitionValue evaluate_acquisition(Acquisition a, double mean, double std, double y_best, double xi, double kappa) {
-  switch (a) {
-    case Acquisition::kExpectedImprovement: return negative_expected_improvement(mean, std, y_best, xi);
-    case Acquisition::kProbabilityOfImprovement: return negative_probability_of_improvement(mean, std, y_best, xi);
-    case Acquisition::kLowerConfidenceBound: return lower_confidence_bound(mean, std, kappa);
-    case Acquisition::kHedge: break;
-  }
-  throw std::logic_error("evaluate_acquisition: gp_hedge is a portfolio, not a single acquisition");
+  const AcquisitionParameters q{y_best, xi, kappa};
+  return with_acquisition(a, [&](auto policy) { return decltype(policy)::evaluate(mean, std, q); });
 }
 
 SafeAcquisitionValue evaluate_safe_acquisition(Acquisition a, double mean, double std, double p_safe,
                                                double fall_level, double y_best, double xi, double kappa) {
   const double p = std::clamp(p_safe, 0.0, 1.0);
-  if (a != Acquisition::kLowerConfidenceBound) {
-    const AcquisitionValue v = evaluate_acquisition(a, mean, std, y_best, xi, kappa);
-    return {p * v.value, p * v.d_mean, p * v.d_std, v.value};
-  }
-  // The bound if the proposal stands, the fall's cost if it falls. (The mixture's own lower bound would
-  // reward the spread between the two outcomes: the riskier the point, the more it would look worth
-  // exploring.)
-  const double bound = mean - kappa * std;
-  SafeAcquisitionValue out;
-  out.value = p * bound + (1.0 - p) * fall_level;
-  out.d_mean = p;
-  out.d_std = -kappa * p;
-  out.d_p = bound - fall_level;
-  return out;
+  const AcquisitionParameters q{y_best, xi, kappa};
+  return with_acquisition(a, [&](auto policy) { return decltype(policy)::safe(mean, std, p, fall_level, q); });
 }
 
 }  // namespace cpgmatch::bo

@@ -9,12 +9,6 @@
 #include <nlopt.hpp>
 
 namespace cpgmatch::bo {
-namespace {
-
-const double kSqrt5 = std::sqrt(5.0);
-
-
-}  // namespace
 
 Eigen::MatrixXd inverse_from_cholesky(const Eigen::MatrixXd& L) {
   // By column blocks of width b: L^-1 is lower triangular, so block J's columns are zero above row j0 and
@@ -81,7 +75,7 @@ double cholesky_with_jitter(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt
   return total;
 }
 
-Eigen::MatrixXd matern52_kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h) {
+Eigen::MatrixXd kernel_matrix(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h) {
   const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
   const Eigen::MatrixXd As = A * inv_l.matrix().asDiagonal();
   const Eigen::MatrixXd Bs = B * inv_l.matrix().asDiagonal();
@@ -95,47 +89,45 @@ Eigen::MatrixXd matern52_kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd&
   K.colwise() += a2;
   K.rowwise() += b2.transpose();
   const double amp = std::exp(h.log_amplitude);
-  // Whole-array expressions, so that sqrt and exp run vectorised (Eigen's SIMD exp, within an ulp or two
-  // of libm's): the kernel of the candidates is a large share of a proposal.
   K.array() = K.array().max(0.0).sqrt();
-  K.array() = amp * (1.0 + kSqrt5 * K.array() + 5.0 / 3.0 * K.array().square()) * (-kSqrt5 * K.array()).exp();
+  K.array() = amp * Kernel::value(K.array());
   return K;
 }
 
 Eigen::MatrixXd GaussianProcess::kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B,
                                         const GpHyperparameters& h) const {
-  return matern52_kernel(A, B, h);
+  return kernel_matrix(A, B, h);
 }
 
-Matern52Gram::Matern52Gram(const Eigen::MatrixXd& X, const GpHyperparameters& h) {
+KernelGram::KernelGram(const Eigen::MatrixXd& X, const GpHyperparameters& h) {
   const Eigen::Index n = X.rows(), d = X.cols();
   amp_ = std::exp(h.log_amplitude);
   const Eigen::ArrayXd inv_l = (-h.log_length_scales.array()).exp();
   Xs_ = X * inv_l.matrix().asDiagonal();
-  // Scaled distances r and exp(-sqrt5 r), once per pair: the kernel and every length-scale gradient use
-  // them (the likelihood is most of a hyperparameter fit). Per dimension, as whole-matrix array
-  // operations (vectorised; the pairwise differences themselves, not a Gram matrix, so close points keep
-  // their accuracy). Squared distances, then the distances in the same array (one n x n buffer fewer).
-  R_ = Eigen::ArrayXXd::Zero(n, n);
+  // Scaled distances r once per pair: the kernel and every length-scale gradient use them (the likelihood
+  // is most of a hyperparameter fit). Per dimension, as whole-matrix array operations (vectorised; the
+  // pairwise differences themselves, not a Gram matrix, so close points keep their accuracy).
+  Eigen::ArrayXXd R = Eigen::ArrayXXd::Zero(n, n);
   for (Eigen::Index b = 0; b < n; ++b) {
-    for (Eigen::Index j = 0; j < d; ++j) R_.col(b) += (Xs_.col(j).array() - Xs_(b, j)).square();
+    for (Eigen::Index j = 0; j < d; ++j) R.col(b) += (Xs_.col(j).array() - Xs_(b, j)).square();
   }
-  R_ = R_.sqrt();
-  E_ = (-kSqrt5 * R_).exp();
-  K_ = (amp_ * (1.0 + kSqrt5 * R_ + 5.0 / 3.0 * R_.square()) * E_).matrix();
+  R = R.sqrt();
+  Eigen::ArrayXXd value(n, n);
+  Kernel::value_and_slope(R, value, S_);
+  K_ = (amp_ * value).matrix();
 }
 
-Eigen::VectorXd Matern52Gram::half_trace_gradient(const Eigen::MatrixXd& W) {
-  if (used_) throw std::logic_error("Matern52Gram::half_trace_gradient called twice");
+Eigen::VectorXd KernelGram::half_trace_gradient(const Eigen::MatrixXd& W) {
+  if (used_) throw std::logic_error("KernelGram::half_trace_gradient called twice");
   used_ = true;
   const Eigen::Index n = Xs_.rows(), d = Xs_.cols();
   Eigen::VectorXd grad(d + 1);
   grad[0] = 0.5 * (W.array() * K_.array()).sum();
-  // For Matern 5/2: dk/dlog(l_j) = amp * 5/3 (1 + sqrt5 r) exp(-sqrt5 r) * (x_j - x'_j)^2 / l_j^2.
-  // The common factor overwrites E (not needed any more). Column b's terms for every dimension while
-  // the column is in cache; each dimension's sum still runs over b in order.
-  Eigen::ArrayXXd& common = E_;
-  common = amp_ * 5.0 / 3.0 * (1.0 + kSqrt5 * R_) * E_ * W.array();
+  // dk/dlog(l_j) = amp * slope(r) * (x_j - x'_j)^2 / l_j^2 (kernel.hpp). The common factor overwrites the
+  // slopes (not needed any more). Column b's terms for every dimension while the column is in cache; each
+  // dimension's sum still runs over b in order.
+  Eigen::ArrayXXd& common = S_;
+  common = amp_ * S_ * W.array();
   Eigen::VectorXd sums = Eigen::VectorXd::Zero(d);
   for (Eigen::Index b = 0; b < n; ++b) {
     for (Eigen::Index j = 0; j < d; ++j) sums[j] += (common.col(b) * (Xs_.col(j).array() - Xs_(b, j)).square()).sum();
@@ -210,7 +202,7 @@ double GaussianProcess::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   const GpHyperparameters h = GpHyperparameters::unpack(theta);
   const int n = static_cast<int>(X_.rows());
   const int d = static_cast<int>(X_.cols());
-  Matern52Gram gram(X_, h);
+  KernelGram gram(X_, h);
   Eigen::MatrixXd K = gram.covariance();
   const double noise = std::exp(h.log_noise);
   K.diagonal().array() += noise;
@@ -334,19 +326,23 @@ Prediction GaussianProcess::predict(const Eigen::VectorXd& x) const {
 
 Prediction GaussianProcess::predict_with_gradient(const Eigen::VectorXd& x, Eigen::VectorXd* dmean,
                                                   Eigen::VectorXd* dstd) const {
-  const int d = static_cast<int>(x.size());
   const double amp = std::exp(hyper_.log_amplitude);
   const Eigen::ArrayXd inv_l2 = (-2.0 * hyper_.log_length_scales.array()).exp();
+  const bool gradient = dmean || dstd;
+  // Every point at once: differences (n x d), scaled distances, then the kernel policy over the n values.
+  Eigen::ArrayXXd diff = (-X_).rowwise() + x.transpose();
+  const Eigen::ArrayXd r = (diff.square().rowwise() * inv_l2.transpose()).rowwise().sum().sqrt();
   Eigen::VectorXd k(n_);
   Eigen::MatrixXd dk;  // dk_i/dx, when a gradient is asked for
-  if (dmean || dstd) dk.resize(n_, d);
-  Eigen::ArrayXd diff(d);      // one buffer for every row, not an allocation per row
-  for (int i = 0; i < n_; ++i) {
-    diff = x.array() - X_.row(i).transpose().array();
-    const double r = std::sqrt((diff.square() * inv_l2).sum());
-    const double e = std::exp(-kSqrt5 * r);
-    k[i] = amp * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r * r) * e;
-    if (dmean || dstd) dk.row(i) = (-amp * 5.0 / 3.0 * (1.0 + kSqrt5 * r) * e * diff * inv_l2).matrix().transpose();
+  if (gradient) {
+    Eigen::ArrayXd value, slope;
+    Kernel::value_and_slope(r, value, slope);
+    k = amp * value.matrix();
+    diff.rowwise() *= inv_l2.transpose();
+    diff.colwise() *= -amp * slope;
+    dk = diff.matrix();
+  } else {
+    k = (amp * Kernel::value(r)).matrix();
   }
   Prediction p;
   const double mean_std = k.dot(alpha_);

@@ -23,6 +23,7 @@ nlohmann::json model_state_to_json(const ModelState& m) {
                       {"hedge_gains", {m.hedge_gains[0], m.hedge_gains[1], m.hedge_gains[2]}}};
   if (m.have_fall_hyperparameters) j["fall_hyperparameters"] = to_vector(m.fall_hyperparameters);
   if (m.fitted_observations >= 0) j["fitted_observations"] = m.fitted_observations;
+  if (m.optimised_observations >= 0) j["optimised_observations"] = m.optimised_observations;
   return j;
 }
 
@@ -31,6 +32,7 @@ ModelState model_state_from_json(const nlohmann::json& j) {
   m.observations = j.at("observations").get<int>();
   m.fits = j.at("fits").get<int>();
   m.fitted_observations = j.value("fitted_observations", -1);  // absent in stores older than it
+  m.optimised_observations = j.value("optimised_observations", -1);  // absent before the hyperparameter schedule
   m.have_hyperparameters = j.at("have_hyperparameters").get<bool>();
   m.hyperparameters = to_eigen(j.at("hyperparameters").get<std::vector<double>>());
   const auto gains = j.at("hedge_gains").get<std::vector<double>>();

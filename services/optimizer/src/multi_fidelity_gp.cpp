@@ -98,8 +98,8 @@ double MultiFidelityGP::log_marginal_likelihood(const Eigen::VectorXd& theta, Ei
   const MultiFidelityHyperparameters h = MultiFidelityHyperparameters::unpack(theta);
   const int n = ns_ + nh_;
   const int d = static_cast<int>(X_.cols());
-  Matern52Gram sim_gram(X_, h.simulation);
-  Matern52Gram discrepancy_gram(X_.bottomRows(nh_), h.discrepancy);
+  KernelGram sim_gram(X_, h.simulation);
+  KernelGram discrepancy_gram(X_.bottomRows(nh_), h.discrepancy);
   Eigen::MatrixXd K = joint_covariance(h, sim_gram.covariance(), discrepancy_gram.covariance());
   Eigen::LLT<Eigen::MatrixXd> llt;
   if (!cholesky_for_likelihood(K, llt)) {
@@ -225,8 +225,8 @@ void MultiFidelityGP::fit(const Eigen::MatrixXd& Xs, const Eigen::VectorXd& ys, 
 
 void MultiFidelityGP::factorise() {
   const Eigen::MatrixXd hw = X_.bottomRows(nh_);
-  Eigen::MatrixXd K = joint_covariance(hyper_, matern52_kernel(X_, X_, hyper_.simulation),
-                                       matern52_kernel(hw, hw, hyper_.discrepancy));
+  Eigen::MatrixXd K = joint_covariance(hyper_, kernel_matrix(X_, X_, hyper_.simulation),
+                                       kernel_matrix(hw, hw, hyper_.discrepancy));
   Eigen::LLT<Eigen::MatrixXd> llt;
   jitter_ = cholesky_with_jitter(K, llt);
   L_ = llt.matrixL();
@@ -243,13 +243,13 @@ Eigen::MatrixXd MultiFidelityGP::cross_covariance(Target t, const Eigen::MatrixX
   if (t == Target::kDiscrepancy) {
     k.topRows(ns_).setZero();  // the discrepancy is independent of the simulation
   } else {
-    k = matern52_kernel(X_, points, hyper_.simulation);
+    k = kernel_matrix(X_, points, hyper_.simulation);
     // cov(sim(x), y_sim) = k_s, cov(sim(x), y_hw) = rho k_s; hardware(x) = rho sim(x) + ... scales both by rho.
     k.bottomRows(nh_) *= rho;
     if (t == Target::kHardware) k *= rho;
   }
   if (t != Target::kSimulation && nh_ > 0) {
-    const Eigen::MatrixXd kd = matern52_kernel(X_.bottomRows(nh_), points, hyper_.discrepancy);
+    const Eigen::MatrixXd kd = kernel_matrix(X_.bottomRows(nh_), points, hyper_.discrepancy);
     if (t == Target::kDiscrepancy) k.bottomRows(nh_) = kd;
     else k.bottomRows(nh_) += kd;
   }

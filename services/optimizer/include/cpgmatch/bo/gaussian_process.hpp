@@ -1,6 +1,6 @@
 // Gaussian-process regression for Bayesian optimisation, as scikit-optimize configures it:
 //
-//   k(x, x') = amplitude * Matern52(r),  r^2 = sum_d (x_d - x'_d)^2 / l_d^2   (one length scale per dim)
+//   k(x, x') = amplitude * Kernel(r),  Kernel = Matern52 (kernel.hpp),  r^2 = sum_d (x_d - x'_d)^2 / l_d^2   (one length scale per dim)
 //   K = k(X, X) + noise * I
 //
 // Inputs are expected in the unit cube; outputs are standardised internally (zero mean, unit variance)
@@ -17,6 +17,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Cholesky>
+
+#include "cpgmatch/bo/kernel.hpp"
 
 namespace cpgmatch::bo {
 
@@ -67,30 +69,29 @@ bool cholesky_for_likelihood(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& ll
 // the total jitter added.
 double cholesky_with_jitter(Eigen::MatrixXd& K, Eigen::LLT<Eigen::MatrixXd>& llt);
 
-// amplitude * Matern52 between the rows of A and the rows of B (no noise term): the covariance of every
-// GP in this library (the cost GP, the fall classifier, both parts of the multi-fidelity model).
-Eigen::MatrixXd matern52_kernel(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h);
+// amplitude * Kernel (kernel.hpp) between the rows of A and the rows of B (no noise term): the covariance of
+// every GP in this library (the cost GP, the fall classifier, both parts of the multi-fidelity model).
+Eigen::MatrixXd kernel_matrix(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const GpHyperparameters& h);
 
-// The Matern 5/2 covariance of one point set with itself, kept with its pairwise scaled distances so that
-// a marginal likelihood's gradient with respect to the kernel's hyperparameters costs one more pass.
+// The Kernel covariance of one point set with itself, kept with the kernel's slopes (kernel.hpp) so that a
+// marginal likelihood's gradient with respect to the kernel's hyperparameters costs one more pass.
 // Shared by GaussianProcess and MultiFidelityGP (whose two kernels are each one of these).
-class Matern52Gram {
+class KernelGram {
  public:
-  Matern52Gram(const Eigen::MatrixXd& X, const GpHyperparameters& h);
+  KernelGram(const Eigen::MatrixXd& X, const GpHyperparameters& h);
 
-  // amplitude * Matern52(r) over every pair (no noise term).
+  // amplitude * Kernel::value(r) over every pair (no noise term).
   const Eigen::MatrixXd& covariance() const { return K_; }
 
   // 0.5 * sum_ab W_ab dK_ab/dtheta for theta = log amplitude, then each log length scale (d + 1 values):
   // the kernel's share of dLML/dtheta when W = alpha alpha^T - K^-1 (W symmetric, same size as K).
-  // Uses up the stored exponentials (one n x n buffer fewer): call it at most once.
+  // Uses up the stored slopes (one n x n buffer fewer): call it at most once.
   Eigen::VectorXd half_trace_gradient(const Eigen::MatrixXd& W);
 
  private:
   double amp_ = 1.0;
   Eigen::MatrixXd Xs_;  // points divided by their length scales
-  Eigen::ArrayXXd R_;   // scaled distances
-  Eigen::ArrayXXd E_;   // exp(-sqrt5 r)
+  Eigen::ArrayXXd S_;   // Kernel::slope(r) of every pair
   Eigen::MatrixXd K_;
   bool used_ = false;
 };

@@ -79,9 +79,28 @@ struct OptimizerOptions {
   bool fall_model = false;
   std::uint64_t seed = 0;
   GpOptions gp;
-  // Hyperparameters: warm-started L-BFGS at every fit; random restarts at every k-th fit as well.
+  // Hyperparameters: re-optimised (warm-started L-BFGS) once the model has grown by this fraction of the
+  // points it had at the last optimisation (at least one point: below 1/growth points, at every tell);
+  // in between, the model is refactorised with the hyperparameters held, O(n^3/3) instead of ~20
+  // likelihood evaluations of O(n^3) each. At 150 points: every 7th tell. 0: at every tell (the old
+  // schedule). Random restarts at every k-th optimisation as well.
+  double hyperparameter_growth = 0.05;
   int hyperparameter_restart_every = 10;
   int hyperparameter_warm_evaluations = 20;  // L-BFGS budget of a warm-started fit (restart fits: gp.max_evaluations)
+  // Large studies (issue 36). Past hyperparameter_max_points model points the hyperparameters are
+  // optimised on that many points spread evenly over the data (O(300^3) per likelihood evaluation instead
+  // of O(n^3)), then used, rescaled to the whole data's standardisation, for the model of every point.
+  int hyperparameter_max_points = 300;
+  // Past max_model_points observations the model is local (a trust region, as in TuRBO, Eriksson et al.
+  // 2019): the exact GP of the max_model_points observations nearest the best one, and the acquisition
+  // searched only within the box of those points (elsewhere the data it does not hold is known already).
+  int max_model_points = 1000;
+  // A batch refines (L-BFGS) the acquisition for its first batch_refined_points points; the rest are
+  // Thompson draws: the untaken candidate of the batch's candidate set (10 per point asked for, at least
+  // acquisition_candidates) where a draw from the posterior marginals is lowest (the believer's lies
+  // shrink the spread around points already chosen). A batch of up to this many points (the paper's
+  // study) is proposed exactly as before. 0: every point refined.
+  int batch_refined_points = 10;
   // Observations after which no more points will be asked for (a study's budget; 0: no limit). The model
   // is not refitted for the last one: a fit nobody will ask is pure cost (minutes on thousands of points).
   int budget = 0;
@@ -121,6 +140,9 @@ struct ModelState {
   // are fitted as they would have been had the budget been larger from the start.
   int fitted_observations = -1;
   int fits = 0;                         // hyperparameter fits so far (sets when random restarts happen)
+  // Observations at the latest hyperparameter optimisation (sets when the next one happens). -1: not known
+  // (a store older than the schedule, when every fit optimised: fitted_observations is that count).
+  int optimised_observations = -1;
   bool have_hyperparameters = false;
   Eigen::VectorXd hyperparameters;      // GpHyperparameters::pack() of the latest fit
   Eigen::Vector3d hedge_gains = Eigen::Vector3d::Zero();
@@ -183,8 +205,14 @@ class BayesianOptimizer {
     Eigen::VectorXd y;
   };
   Dataset dataset() const;
+  // What the GP models: dataset(), or past max_model_points its rows nearest the best (the local model).
+  Dataset model_dataset() const;
+  // The model's region for the data it models: the unit cube, or the local model's box.
+  void set_region(const Dataset& model_data);
   void record(Observation obs);
   void refit();
+  // Whether this refit re-optimises the hyperparameters (OptimizerOptions::hyperparameter_growth).
+  bool hyperparameters_due() const;
   // Fits the fall model to the successful observations (fall_model on); optimise = false refactorises
   // with last_fall_hyper_.
   void fit_fall_model(bool optimise);
@@ -201,8 +229,13 @@ class BayesianOptimizer {
     Eigen::MatrixXd C;  // d x m, unit cube
     std::vector<CandidatePosterior> blocks;
     Eigen::VectorXd p_safe;
+    std::vector<bool> taken;  // chosen by best_candidate() in this ask
   };
-  Candidates draw_candidates(std::mt19937_64& rng) const;
+  // m random points of the model's region (the unit cube, or the local model's box), with their posterior.
+  Candidates draw_candidates(std::mt19937_64& rng, int m) const;
+  // The untaken candidate where a draw from the current (lied-to) model's posterior marginals is lowest
+  // (Thompson sampling, fall-weighted like LCB), marked taken.
+  Eigen::VectorXd thompson_candidate(Candidates& c, std::mt19937_64& rng) const;
   // The posterior of c.C on the current GP, from scratch.
   void compute_posterior(Candidates& c) const;
   // After points were appended to the GP (append_fixed() returned true): the posterior's new rows only.
@@ -233,6 +266,7 @@ class BayesianOptimizer {
   bool have_hyper_ = false;
   int fits_ = 0;
   int fitted_observations_ = 0;  // observations the latest fit (or restore's factorisation) covered
+  int optimised_observations_ = 0;  // observations at the latest hyperparameter optimisation
   HedgeState hedge_;
   FallModel fall_;
   GpHyperparameters last_fall_hyper_;
@@ -240,6 +274,7 @@ class BayesianOptimizer {
   double fall_level_ = 0.0;  // mean model-unit cost of the observed falls
   std::vector<Eigen::VectorXd> next_proposals_;  // unit cube; per base acquisition (EI, LCB, PI) or one
   int threads_ = 1;
+  Eigen::VectorXd region_lo_, region_hi_;  // unit cube; where the acquisition is searched (set_region)
 };
 
 }  // namespace cpgmatch::bo

@@ -19,7 +19,7 @@ struct TestFunction {
 };
 
 // branin, hartmann3, hartmann6, ackley (2-D), rosenbrock (2-D), levy (2-D), styblinski-tang (2-D),
-// quadratic1d. Throws InputError listing the names for an unknown one.
+// quadratic1d, ackley20 (20-D, box [-5, 10]), levy20 (20-D). Throws InputError listing the names for an unknown one.
 TestFunction test_function(const std::string& name);
 std::vector<std::string> test_function_names();
 
