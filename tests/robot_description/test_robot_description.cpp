@@ -205,6 +205,9 @@ struct ShippedWalker {
   std::vector<std::string> legs;
 };
 
+// Names the case in test listings (ctest shows GetParam()).
+void PrintTo(const ShippedWalker& w, std::ostream* os) { *os << w.robot << " preset " << w.preset << " gait " << (*w.gait ? w.gait : "default"); }
+
 sim::SimRolloutJob walker_job(const RobotDescription& robot, const ShippedWalker& w) {
   sim::SimRolloutJob job;
   job.settings = load_rollout_settings(sim::default_rollout_settings_path());
