@@ -56,5 +56,36 @@ check "--robot and --model together" expect_exit 2 "excludes" "$bin" rollout --r
 "$bin" rollout --entrain 2 --eval 2 --json >"$tmp/b.json"
 check "rollout --robot morti equals the default model's rollout" python3 -c "import json; a=json.load(open('$tmp/a.json')); b=json.load(open('$tmp/b.json')); exit(0 if abs(a['cost']-b['cost'])<=1e-9*abs(b['cost']) and a['fell']==b['fell'] else 1)"
 
+# eval-rollout and optimize --objective rollout take a robot: eval-rollout --robot NAME --preset P is the rollout
+# `robot check` runs for that preset (same cost to 1e-9); optimize --robot searches the robot's search_space with
+# the preset's other values fixed, and passes the robot on to every evaluation.
+"$bin" robot check moteus-hexapod --json >"$tmp/hex.json"
+echo '{}' | "$bin" eval-rollout --robot moteus-hexapod --preset tripod >"$tmp/hex-eval.out"
+check "eval-rollout --robot --preset costs what robot check's preset costs" python3 - "$tmp/hex.json" "$tmp/hex-eval.out" <<'PY'
+import json, sys
+c = {p["name"]: p["cost"] for p in json.load(open(sys.argv[1]))["presets"]}
+cost = float(open(sys.argv[2]).read().split()[-1])
+sys.exit(0 if abs(cost - c["tripod"]) <= 1e-9 * abs(c["tripod"]) else 1)
+PY
+echo '{}' | "$bin" eval-rollout --robot moteus-hexapod --preset slow --gait wave >"$tmp/wave.out"
+echo '{}' | "$bin" eval-rollout --robot moteus-hexapod --preset slow --gait tripod >"$tmp/tripod.out"
+check "eval-rollout --gait changes the gait" python3 -c "import sys; a=float(open('$tmp/wave.out').read().split()[-1]); b=float(open('$tmp/tripod.out').read().split()[-1]); sys.exit(0 if a != b else 1)"
+echo '{}' >"$tmp/empty-point.json"
+check "eval-rollout --gait unknown to the robot" expect_exit 2 "robot 'moteus-hexapod' has gaits tripod, ripple, wave" bash -c "\"$bin\" eval-rollout --robot moteus-hexapod --gait trot <\"$tmp/empty-point.json\""
+check "optimize --robot with an unknown preset" expect_exit 2 "preset 'nope': robot 'odrive-quadruped' has presets" "$bin" optimize --objective rollout --robot odrive-quadruped --preset nope --budget 2
+check "optimize --preset without --robot" expect_exit 2 "need --robot" "$bin" optimize --objective rollout --preset trot --budget 2
+"$bin" optimize --objective rollout --robot odrive-quadruped --budget 4 --initial 3 --seed 5 --json --quiet >"$tmp/opt.json"
+check "optimize --robot searches the robot's space, the preset's frequency and knee amplitude fixed" python3 - "$tmp/opt.json" <<'PY'
+import json, sys
+o = json.load(open(sys.argv[1]))
+searched = {"hip_offset", "hip_amplitude", "duty_factor_front", "duty_factor_hind", "knee_phase_shift", "overswing"}
+ok = o["evaluations"] == 4 and o["failed"] == 0 and o["best"] is not None
+for t in o["trials"]:
+    p = t["params"]
+    ok = ok and set(p) == searched | {"frequency", "knee_amplitude"} and p["frequency"] == 1.5 and p["knee_amplitude"] == 0.4
+    ok = ok and 0.1 <= p["hip_amplitude"] <= 0.5   # the robot's range, not the paper's 0.65
+sys.exit(0 if ok else 1)
+PY
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -1,5 +1,6 @@
 // A robot as data: Morti read from configs/robots/morti/ (URDF + robot.yaml) against the hand-written model
 // configs/model/morti.yaml, and every bad description refused with the element and its file:line.
+#include <cctype>
 #include <cmath>
 #include <random>
 #include <regex>
@@ -191,6 +192,93 @@ std::string error_of(const Texts& t) {
   }
   return "(accepted)";
 }
+
+// The two robots shipped beside Morti (docs/your-robot.md "Shipped robots"): a two-segment-leg quadruped and a
+// hexapod, with the leg and joint names of their hardware files (configs/robot/odrive-quadruped.yaml,
+// moteus-hexapod.yaml). Each stands 3 s on its own springs and motors, and its hand-chosen preset walks 20 s
+// (the rollout settings' 10 s entrainment + 10 s evaluation) without falling, forward at > 0.2 m/s; the
+// hexapod also in its ripple and wave gaits with its `slow` preset.
+struct ShippedWalker {
+  const char* robot;
+  const char* preset;
+  const char* gait;  // empty: the robot's default
+  std::vector<std::string> legs;
+};
+
+// Names the case in test listings (ctest shows GetParam()).
+void PrintTo(const ShippedWalker& w, std::ostream* os) { *os << w.robot << " preset " << w.preset << " gait " << (*w.gait ? w.gait : "default"); }
+
+sim::SimRolloutJob walker_job(const RobotDescription& robot, const ShippedWalker& w) {
+  sim::SimRolloutJob job;
+  job.settings = load_rollout_settings(sim::default_rollout_settings_path());
+  job.params = load_parameters(sim::default_params_path());
+  job.model = sim::planar_leg_model(robot);
+  if (*w.gait) job.settings.controller.gait = w.gait;
+  apply_robot_legs(job.settings.controller, robot);
+  for (const auto& [key, value] : robot.presets.at(w.preset)) set_parameter(job.params, key, value, w.preset);
+  return job;
+}
+
+class ShippedWalkers : public ::testing::TestWithParam<ShippedWalker> {};
+
+TEST_P(ShippedWalkers, LegsAreTheHardwareFilesTwoSegmentsEach) {
+  const ShippedWalker& w = GetParam();
+  const RobotDescription robot = load_robot(w.robot);
+  ASSERT_EQ(robot.legs.size(), w.legs.size());
+  for (std::size_t i = 0; i < w.legs.size(); ++i) {
+    EXPECT_EQ(robot.legs[i].name, w.legs[i]);
+    EXPECT_EQ(robot.legs[i].hip_joint, w.legs[i] + "_hip");
+    EXPECT_EQ(robot.legs[i].knee_joint, w.legs[i] + "_knee");
+    EXPECT_TRUE(robot.legs[i].ankle_joint.empty()) << "two-segment legs";
+  }
+  const sim::MortiModel m = sim::planar_leg_model(robot);
+  EXPECT_FALSE(m.has_ankle);
+  EXPECT_EQ(m.leg_count(), w.legs.size());
+  EXPECT_EQ(m.knee_drive, sim::MortiModel::KneeDrive::kPositionPd);  // unlike Morti's series-elastic knee
+}
+
+TEST_P(ShippedWalkers, StandsThreeSeconds) {
+  const RobotDescription robot = load_robot(GetParam().robot);
+  const sim::MortiModel m = sim::planar_leg_model(robot);
+  sim::OdePlant plant(m, sim::TerrainSpec{}, 0);
+  const double start = plant.state().trunk.height_m;
+  EXPECT_NEAR(start, sim::standing_trunk_height_m(robot), 1e-9);
+  plant.command(PerLeg<JointCommand>(m.leg_count()));
+  plant.advance(3.0);
+  const PlantState s = plant.state();
+  // The legs give under the body's weight (the knees are springs), by less than a fifth of the height.
+  EXPECT_GT(s.trunk.height_m, 0.8 * start);
+  EXPECT_LT(s.trunk.height_m, start);
+  EXPECT_LT(std::abs(s.trunk.pitch_rad), 0.05);
+}
+
+TEST_P(ShippedWalkers, HandChosenPresetWalksWithoutFalling) {
+  const ShippedWalker& w = GetParam();
+  const RobotDescription robot = load_robot(w.robot);
+  const sim::SimRolloutJob job = walker_job(robot, w);
+  for (std::uint64_t seed : {0u, 1u}) {
+    SCOPED_TRACE(seed);
+    sim::SimRolloutJob j = job;
+    j.seed = seed;
+    const RolloutResult r = sim::run_sim_rollout(j);
+    EXPECT_EQ(r.outcome, RolloutOutcome::kCompleted) << r.outcome_message;
+    EXPECT_FALSE(r.fell);
+    EXPECT_GT(r.breakdown.mean_speed_mps, 0.2);
+    EXPECT_GT(r.breakdown.distance_m, 2.0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Robots, ShippedWalkers,
+    ::testing::Values(ShippedWalker{"odrive-quadruped", "trot", "", {"FL", "FR", "HL", "HR"}},
+                      ShippedWalker{"moteus-hexapod", "tripod", "", {"L1", "R1", "L2", "R2", "L3", "R3"}},
+                      ShippedWalker{"moteus-hexapod", "slow", "ripple", {"L1", "R1", "L2", "R2", "L3", "R3"}},
+                      ShippedWalker{"moteus-hexapod", "slow", "wave", {"L1", "R1", "L2", "R2", "L3", "R3"}}),
+    [](const ::testing::TestParamInfo<ShippedWalker>& info) {
+      std::string name = std::string(info.param.robot) + "_" + info.param.preset + "_" + info.param.gait;
+      for (char& c : name) if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+      return name;
+    });
 
 TEST(RobotDescriptionErrors, EachBadDescriptionNamesTheElementAndItsLine) {
   const Texts good = morti_texts();

@@ -8,13 +8,15 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "cpgmatch/robot_description_loader.hpp"
+#include "robot_job.hpp"
 #include "rollout_json.hpp"
 
 namespace cpgmatch::cli {
 
 void add_eval_rollout_command(CLI::App& app) {
   struct Options {
-    std::string settings_file, model_file, terrain = "flat";
+    std::string settings_file, model_file, robot, preset, gait, terrain = "flat";
     std::uint64_t seed = 0;
     double entrain_s = -1.0, eval_s = -1.0;
   };
@@ -22,7 +24,12 @@ void add_eval_rollout_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("eval-rollout", "internal: rollout with parameters as JSON on stdin");
   cmd->group("");  // hidden from --help
   cmd->add_option("--settings", opts->settings_file);
-  cmd->add_option("--model", opts->model_file);
+  CLI::Option* model = cmd->add_option("--model", opts->model_file);
+  // A robot description instead of the model file: its plant, legs and gaits, and its preset as the base values
+  // the point's parameters override (default: its "default" preset, if it has one).
+  cmd->add_option("--robot", opts->robot)->excludes(model);
+  cmd->add_option("--preset", opts->preset);
+  cmd->add_option("--gait", opts->gait);
   cmd->add_option("--terrain", opts->terrain);
   cmd->add_option("--seed", opts->seed);
   cmd->add_option("--entrain", opts->entrain_s);
@@ -37,6 +44,11 @@ void add_eval_rollout_command(CLI::App& app) {
     }
     if (!point.is_object()) throw InputError("stdin: expected a JSON object {\"name\": value, ...}");
     sim::SimRolloutJob job = make_sim_job("", {}, opts->settings_file, opts->model_file, opts->terrain, opts->seed);
+    if (!opts->robot.empty()) {
+      apply_robot(job, load_robot(opts->robot), opts->preset, opts->gait);
+    } else if (!opts->preset.empty() || !opts->gait.empty()) {
+      throw InputError("--preset and --gait need --robot NAME|DIR");
+    }
     for (const auto& [name, value] : point.items()) {
       if (!value.is_number()) throw InputError(fmt::format("stdin: parameter '{}' must be a number", name));
       set_parameter(job.params, name, value.get<double>(), "stdin");

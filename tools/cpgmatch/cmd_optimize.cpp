@@ -7,6 +7,8 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "cpgmatch/robot_description_loader.hpp"
+#include "robot_job.hpp"
 #include "optimization_loop.hpp"
 #include "optimizer_flags.hpp"
 #include "progress.hpp"
@@ -16,9 +18,14 @@ namespace cpgmatch::cli {
 namespace {
 
 // `--objective rollout`: each point runs as a child process, `cpgmatch eval-rollout`.
-std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed) {
-  return fmt::format("{} eval-rollout --terrain {} --seed {}", shell_quote(self_executable()), shell_quote(terrain),
-                     seed);
+std::string rollout_objective_command(const std::string& terrain, std::uint64_t seed, const std::string& robot,
+                                      const std::string& preset, const std::string& gait) {
+  std::string cmd = fmt::format("{} eval-rollout --terrain {} --seed {}", shell_quote(self_executable()),
+                                shell_quote(terrain), seed);
+  if (!robot.empty()) cmd += " --robot " + shell_quote(robot);
+  if (!preset.empty()) cmd += " --preset " + shell_quote(preset);
+  if (!gait.empty()) cmd += " --gait " + shell_quote(gait);
+  return cmd;
 }
 
 }  // namespace
@@ -31,14 +38,21 @@ void add_optimize_command(CLI::App& app) {
     std::string objective;
     double timeout_s = 600.0;
     std::string terrain = "flat";
+    std::string robot, preset, gait;
   };
   auto opts = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand("optimize", "Bayesian optimisation of a black-box command or of the CPG");
-  cmd->add_option("--space", opts->space_file, "search space YAML (default with --objective rollout: configs/spaces/paper.yaml)");
+  cmd->add_option("--space", opts->space_file, "search space YAML (default with --objective rollout: configs/spaces/paper.yaml, "
+                                              "or the robot's search_space with --robot)");
   cmd->add_option("--objective-cmd", opts->objective_cmd, "shell command: point as JSON on stdin, cost on the last stdout line");
   cmd->add_option("--objective", opts->objective, "built-in objective: rollout");
   cmd->add_option("--timeout", opts->timeout_s, "seconds before an evaluation is killed and counted as failed");
   cmd->add_option("--terrain", opts->terrain, fmt::format("terrain for --objective rollout: {}", sim::TerrainSpec::syntax()));
+  cmd->add_option("--robot", opts->robot, "with --objective rollout: a robot description (cpgmatch robot list, or a folder "
+                                         "with robot.yaml) instead of configs/model/morti.yaml");
+  cmd->add_option("--preset", opts->preset, "with --robot: the robot's preset giving every value not searched (default: its "
+                                           "'default' preset)");
+  cmd->add_option("--gait", opts->gait, "with --robot: one of the robot's gaits (default: trot if it has one, else its default)");
   opts->flags.add_to(cmd);
   cmd->callback([opts] {
     const auto options = opts->flags.to_options();
@@ -50,14 +64,28 @@ void add_optimize_command(CLI::App& app) {
       throw InputError("give exactly one of --objective-cmd \"CMD\" or --objective rollout");
     }
     if (!(opts->timeout_s > 0.0)) throw InputError("--timeout must be > 0");
-    std::string space_file = opts->space_file;
-    if (space_file.empty()) {
-      if (!rollout) throw InputError("--space SPACE.yaml is required with --objective-cmd");
-      space_file = sim::config_dir() + "/spaces/paper.yaml";
+    if ((!opts->robot.empty() || !opts->preset.empty() || !opts->gait.empty()) && !rollout) {
+      throw InputError("--robot, --preset and --gait go with --objective rollout");
     }
-    const bo::SearchSpace space = bo::SearchSpace::load(space_file);
+    if ((!opts->preset.empty() || !opts->gait.empty()) && opts->robot.empty()) {
+      throw InputError("--preset and --gait need --robot NAME|DIR");
+    }
+    bo::SearchSpace space;
+    if (!opts->space_file.empty()) {
+      space = bo::SearchSpace::load(opts->space_file);
+    } else if (!opts->robot.empty()) {
+      // Checked here, before any child runs, so a bad robot, preset or gait fails once with its own message.
+      sim::SimRolloutJob probe;
+      const RobotDescription robot = load_robot(opts->robot);
+      apply_robot(probe, robot, opts->preset, opts->gait);
+      space = robot_search_space(robot, opts->preset);
+    } else {
+      if (!rollout) throw InputError("--space SPACE.yaml is required with --objective-cmd");
+      space = bo::SearchSpace::load(sim::config_dir() + "/spaces/paper.yaml");
+    }
     const std::string command =
-        rollout ? rollout_objective_command(opts->terrain, opts->flags.seed) : opts->objective_cmd;
+        rollout ? rollout_objective_command(opts->terrain, opts->flags.seed, opts->robot, opts->preset, opts->gait)
+                : opts->objective_cmd;
 
     bo::BayesianOptimizer optimizer(space, options);
     ProgressLine progress(opts->flags.budget, opts->flags.quiet);
