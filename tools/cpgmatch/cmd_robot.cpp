@@ -157,7 +157,7 @@ void add_robot_command(CLI::App& app) {
     for (const std::string& name : shipped_robot_names()) {
       const RobotDescription r = load_robot(name);
       out.push_back({{"name", name}, {"legs", r.legs.size()}, {"total_mass_kg", r.total_mass_kg()}, {"summary", r.summary}});
-      if (!*list_json) fmt::print("{:<12} {} legs, {:.2f} kg  {}\n", name, r.legs.size(), r.total_mass_kg(), r.summary);
+      if (!*list_json) fmt::print("{:<18} {} legs, {:.2f} kg  {}\n", name, r.legs.size(), r.total_mass_kg(), r.summary);
     }
     if (*list_json) std::cout << out.dump() << std::endl;
   });
