@@ -18,34 +18,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A value is a bare number or {value: X, source: "..."} (every physical value should say where it comes from).
-double value_of(const YamlReader& r, const std::string& key, double fallback) {
-  if (!r.has(key)) return fallback;
-  if (r.node()[key].IsMap()) {
-    const YamlReader entry = r.child(key);
-    entry.reject_unknown_keys({"value", "source", "unit"});
-    const double v = entry.require_double("value");
-    if (!std::isfinite(v)) entry.fail("value", "must be a finite number");
-    return v;
-  }
-  return r.get_double(key, fallback);
-}
-
-double positive(const YamlReader& r, const std::string& key, double fallback) {
-  const double v = value_of(r, key, fallback);
-  if (!(v > 0.0)) r.fail(key, "must be > 0");
-  return v;
-}
-
-double non_negative(const YamlReader& r, const std::string& key, double fallback) {
-  const double v = value_of(r, key, fallback);
-  if (!(v >= 0.0)) r.fail(key, "must be >= 0");
-  return v;
-}
-
 double required_positive(const YamlReader& r, const std::string& key) {
   if (!r.has(key)) r.fail(key, "is required");
-  return positive(r, key, 0.0);
+  return positive_value(r, key, 0.0);
 }
 
 MotorDescription parse_motor(const YamlReader& r, const std::string& name) {
@@ -55,10 +30,10 @@ MotorDescription parse_motor(const YamlReader& r, const std::string& name) {
   m.name = name;
   m.stall_torque_nm = required_positive(r, "stall_torque_nm");
   m.no_load_speed_rad_s = required_positive(r, "no_load_speed_rad_s");
-  m.gear_ratio = positive(r, "gear_ratio", 1.0);
-  m.coulomb_friction_nm = non_negative(r, "coulomb_friction_nm", 0.0);
-  m.viscous_friction_nm_s_per_rad = non_negative(r, "viscous_friction_nm_s_per_rad", 0.0);
-  m.reflected_inertia_kg_m2 = non_negative(r, "reflected_inertia_kg_m2", 0.0);
+  m.gear_ratio = positive_value(r, "gear_ratio", 1.0);
+  m.coulomb_friction_nm = non_negative_value(r, "coulomb_friction_nm", 0.0);
+  m.viscous_friction_nm_s_per_rad = non_negative_value(r, "viscous_friction_nm_s_per_rad", 0.0);
+  m.reflected_inertia_kg_m2 = non_negative_value(r, "reflected_inertia_kg_m2", 0.0);
   return m;
 }
 
@@ -78,14 +53,14 @@ DriveDescription parse_drive(const YamlReader& r, const std::map<std::string, Mo
     d.kind = DriveDescription::Kind::kPositionPd;
     check_motor();
     d.kp_nm_per_rad = required_positive(r, "kp_nm_per_rad");
-    d.kd_nm_s_per_rad = non_negative(r, "kd_nm_s_per_rad", 0.0);
+    d.kd_nm_s_per_rad = non_negative_value(r, "kd_nm_s_per_rad", 0.0);
   } else if (kind == "series_elastic") {
     r.reject_unknown_keys({"kind", "motor", "stiffness_nm_per_rad", "damping_nm_s_per_rad", "bandwidth_per_s",
                            "joint_friction_nm"});
     d.kind = DriveDescription::Kind::kSeriesElastic;
     check_motor();
     d.series_spring.stiffness_nm_per_rad = required_positive(r, "stiffness_nm_per_rad");
-    d.series_spring.damping_nm_s_per_rad = non_negative(r, "damping_nm_s_per_rad", 0.0);
+    d.series_spring.damping_nm_s_per_rad = non_negative_value(r, "damping_nm_s_per_rad", 0.0);
     d.bandwidth_per_s = required_positive(r, "bandwidth_per_s");
   } else if (kind == "passive") {
     r.reject_unknown_keys({"kind", "joint_friction_nm"});
@@ -93,7 +68,7 @@ DriveDescription parse_drive(const YamlReader& r, const std::map<std::string, Mo
   } else {
     r.fail("kind", fmt::format("unknown drive '{}' (known: position_pd, series_elastic, passive)", escape_for_message(kind)));
   }
-  d.joint_friction_nm = non_negative(r, "joint_friction_nm", 0.0);
+  d.joint_friction_nm = non_negative_value(r, "joint_friction_nm", 0.0);
   return d;
 }
 
@@ -282,6 +257,51 @@ void refuse_todo(const YAML::Node& node, const std::string& source, const std::s
 
 }  // namespace
 
+double physical_value(const YamlReader& r, const std::string& key, double fallback) {
+  if (!r.has(key)) return fallback;
+  if (r.node()[key].IsMap()) {
+    const YamlReader entry = r.child(key);
+    entry.reject_unknown_keys({"value", "source", "unit"});
+    const double v = entry.require_double("value");
+    if (!std::isfinite(v)) entry.fail("value", "must be a finite number");
+    return v;
+  }
+  return r.get_double(key, fallback);
+}
+
+double positive_value(const YamlReader& r, const std::string& key, double fallback) {
+  const double v = physical_value(r, key, fallback);
+  if (!(v > 0.0)) r.fail(key, "must be > 0");
+  return v;
+}
+
+double non_negative_value(const YamlReader& r, const std::string& key, double fallback) {
+  const double v = physical_value(r, key, fallback);
+  if (!(v >= 0.0)) r.fail(key, "must be >= 0");
+  return v;
+}
+
+ContactDescription parse_contact(const YamlReader& c, ContactDescription d) {
+  c.reject_unknown_keys({"friction", "stiffness_n_per_m", "damping_n_s_per_m"});
+  d.friction = positive_value(c, "friction", d.friction);
+  d.stiffness_n_per_m = positive_value(c, "stiffness_n_per_m", d.stiffness_n_per_m);
+  d.damping_n_s_per_m = positive_value(c, "damping_n_s_per_m", d.damping_n_s_per_m);
+  return d;
+}
+
+FootSensorDescription parse_foot_sensor(const YamlReader& f, FootSensorDescription d) {
+  f.reject_unknown_keys({"sensitivity", "time_constant_s"});
+  d.sensitivity = positive_value(f, "sensitivity", d.sensitivity);
+  d.time_constant_s = non_negative_value(f, "time_constant_s", d.time_constant_s);
+  return d;
+}
+
+void parse_simulation(const YamlReader& s, double& physics_rate_hz, double& gravity_m_s2) {
+  s.reject_unknown_keys({"physics_rate_hz", "gravity_m_s2"});
+  physics_rate_hz = positive_value(s, "physics_rate_hz", physics_rate_hz);
+  gravity_m_s2 = positive_value(s, "gravity_m_s2", gravity_m_s2);
+}
+
 fs::path shipped_robots_dir() {
   if (const char* env = std::getenv("CPGMATCH_CONFIG_DIR"); env && *env) return fs::path(env) / "robots";
   return fs::path(CPGMATCH_CONFIG_DIR) / "robots";
@@ -387,29 +407,13 @@ RobotDescription parse_robot(const std::string& yaml_text, const std::string& ya
       }
       if (p.from_role == p.to_role) s.fail("to", "must differ from 'from'");
       p.spring.stiffness_nm_per_rad = required_positive(s, "stiffness_nm_per_rad");
-      p.spring.damping_nm_s_per_rad = non_negative(s, "damping_nm_s_per_rad", 0.0);
+      p.spring.damping_nm_s_per_rad = non_negative_value(s, "damping_nm_s_per_rad", 0.0);
       robot.parallel_springs.push_back(p);
     }
   }
-  if (r.has("contact")) {
-    const YamlReader c = r.child("contact");
-    c.reject_unknown_keys({"friction", "stiffness_n_per_m", "damping_n_s_per_m"});
-    robot.contact.friction = positive(c, "friction", robot.contact.friction);
-    robot.contact.stiffness_n_per_m = positive(c, "stiffness_n_per_m", robot.contact.stiffness_n_per_m);
-    robot.contact.damping_n_s_per_m = positive(c, "damping_n_s_per_m", robot.contact.damping_n_s_per_m);
-  }
-  if (r.has("foot_sensor")) {
-    const YamlReader f = r.child("foot_sensor");
-    f.reject_unknown_keys({"sensitivity", "time_constant_s"});
-    robot.foot_sensor.sensitivity = positive(f, "sensitivity", robot.foot_sensor.sensitivity);
-    robot.foot_sensor.time_constant_s = non_negative(f, "time_constant_s", robot.foot_sensor.time_constant_s);
-  }
-  if (r.has("simulation")) {
-    const YamlReader s = r.child("simulation");
-    s.reject_unknown_keys({"physics_rate_hz", "gravity_m_s2"});
-    robot.physics_rate_hz = positive(s, "physics_rate_hz", robot.physics_rate_hz);
-    robot.gravity_m_s2 = positive(s, "gravity_m_s2", robot.gravity_m_s2);
-  }
+  if (r.has("contact")) robot.contact = parse_contact(r.child("contact"), robot.contact);
+  if (r.has("foot_sensor")) robot.foot_sensor = parse_foot_sensor(r.child("foot_sensor"), robot.foot_sensor);
+  if (r.has("simulation")) parse_simulation(r.child("simulation"), robot.physics_rate_hz, robot.gravity_m_s2);
   parse_gaits(r, robot);
   parse_presets(r, robot);
   parse_search_space(r, robot);

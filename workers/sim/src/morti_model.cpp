@@ -2,31 +2,18 @@
 
 #include "cpgmatch/sim/physical_ranges.hpp"
 
+#include "cpgmatch/robot_description_loader.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 
 namespace cpgmatch::sim {
 namespace {
 
-// Each value in the model YAML is a mapping {value: X, unit: ..., source: ...}, or a bare number.
-double value_of(const YamlReader& r, const std::string& key, double fallback) {
-  if (!r.has(key)) return fallback;
-  if (r.node()[key].IsMap()) {
-    const YamlReader entry = r.child(key);
-    return entry.require_double("value");
-  }
-  return r.get_double(key, fallback);
-}
-
-double positive(const YamlReader& r, const std::string& key, double fallback) {
-  const double v = value_of(r, key, fallback);
-  if (!(v > 0.0)) r.fail(key, "must be > 0");
-  return v;
-}
-
+// Each value in the model YAML is a mapping {value: X, unit: ..., source: ...}, or a bare number: read as a
+// robot.yaml's are (robot_description_loader.hpp).
+double value_of(const YamlReader& r, const std::string& key, double fallback) { return physical_value(r, key, fallback); }
+double positive(const YamlReader& r, const std::string& key, double fallback) { return positive_value(r, key, fallback); }
 double non_negative(const YamlReader& r, const std::string& key, double fallback) {
-  const double v = value_of(r, key, fallback);
-  if (!(v >= 0.0)) r.fail(key, "must be >= 0");
-  return v;
+  return non_negative_value(r, key, fallback);
 }
 
 SegmentModel segment(const YamlReader& r, const std::string& key, SegmentModel fallback) {
@@ -107,25 +94,9 @@ MortiModel parse_morti_model(const YamlReader& r) {
     m.knee_motor.no_load_speed_rad_s = positive(k, "no_load_speed_rad_s", m.knee_motor.no_load_speed_rad_s);
     m.knee_motor_bandwidth_per_s = positive(k, "bandwidth_per_s", m.knee_motor_bandwidth_per_s);
   }
-  if (r.has("contact")) {
-    const YamlReader c = r.child("contact");
-    c.reject_unknown_keys({"friction", "stiffness_n_per_m", "damping_n_s_per_m"});
-    m.contact.friction = positive(c, "friction", m.contact.friction);
-    m.contact.stiffness_n_per_m = positive(c, "stiffness_n_per_m", m.contact.stiffness_n_per_m);
-    m.contact.damping_n_s_per_m = positive(c, "damping_n_s_per_m", m.contact.damping_n_s_per_m);
-  }
-  if (r.has("foot_sensor")) {
-    const YamlReader f = r.child("foot_sensor");
-    f.reject_unknown_keys({"sensitivity", "time_constant_s"});
-    m.foot_sensor.sensitivity = positive(f, "sensitivity", m.foot_sensor.sensitivity);
-    m.foot_sensor.time_constant_s = non_negative(f, "time_constant_s", m.foot_sensor.time_constant_s);
-  }
-  if (r.has("simulation")) {
-    const YamlReader s = r.child("simulation");
-    s.reject_unknown_keys({"physics_rate_hz", "gravity_m_s2"});
-    m.physics_rate_hz = positive(s, "physics_rate_hz", m.physics_rate_hz);
-    m.gravity_m_s2 = positive(s, "gravity_m_s2", m.gravity_m_s2);
-  }
+  if (r.has("contact")) m.contact = parse_contact(r.child("contact"), m.contact);
+  if (r.has("foot_sensor")) m.foot_sensor = parse_foot_sensor(r.child("foot_sensor"), m.foot_sensor);
+  if (r.has("simulation")) parse_simulation(r.child("simulation"), m.physics_rate_hz, m.gravity_m_s2);
   // Finite and > 0 is not enough: 1e308 kg aborts ODE (physical_ranges.hpp).
   if (const auto problem = check_physical_ranges(m)) {
     (r.has(problem->section) ? r.child(problem->section) : r).fail(problem->key, problem->message);

@@ -39,8 +39,19 @@ UrdfModel parse_urdf(const std::string& urdf_text, const std::string& urdf_sourc
 }  // namespace cpgmatch
 
 #include "cpgmatch/controller.hpp"
+#include "cpgmatch/yaml_reader.hpp"
 
 namespace cpgmatch {
+
+// Sections a robot.yaml and a model file (workers/sim's MortiModel) share, read one way for both. A value
+// is a bare number or {value: X, source: "..."}; `fallback` holds what an absent key keeps.
+double physical_value(const YamlReader& r, const std::string& key, double fallback);
+double positive_value(const YamlReader& r, const std::string& key, double fallback);
+double non_negative_value(const YamlReader& r, const std::string& key, double fallback);
+ContactDescription parse_contact(const YamlReader& section, ContactDescription fallback);
+FootSensorDescription parse_foot_sensor(const YamlReader& section, FootSensorDescription fallback);
+// physics_rate_hz and gravity_m_s2 of a `simulation:` section.
+void parse_simulation(const YamlReader& section, double& physics_rate_hz, double& gravity_m_s2);
 
 // The controller's view of the robot: its legs (names, groups) and its gaits. The gait `config.gait` names
 // is kept when the robot has it; otherwise the robot's default gait (its first) is used.

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "cpgmatch/robot_description.hpp"
+
 namespace cpgmatch {
 class YamlReader;
 }
@@ -36,20 +38,13 @@ struct SpringModel {
   double damping_nm_s_per_rad = 0.02;
 };
 
-struct ContactModel {
-  double friction = 0.8;
-  double stiffness_n_per_m = 5e4;
-  double damping_n_s_per_m = 150.0;
-};
+using ContactModel = ContactDescription;  // robot_description.hpp: friction, stiffness, damping
 
 // The FootTile as a force sensor: what the robot reports as a foot's normal force. An ideal sensor
 // (sensitivity 1, no lag) reports the contact force itself; a worn or soft polyurethane dome passes less of
 // the force to its barometer (sensitivity < 1) and lags it (viscoelastic creep of the dome plus the
 // barometer's oversampling filter, a first-order lag), so the rollout's threshold is crossed later.
-struct FootSensorModel {
-  double sensitivity = 1.0;      // reported force / contact force
-  double time_constant_s = 0.0;  // first-order lag of the reported force, seconds (0: none)
-};
+using FootSensorModel = FootSensorDescription;  // robot_description.hpp: sensitivity, lag
 
 struct MortiModel {
   double trunk_mass_kg = 3.0;
