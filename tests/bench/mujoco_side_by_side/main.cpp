@@ -4,7 +4,7 @@
 // gait is cpgmatch's CpgController through run_rollout in both engines, so only the physics differs. For
 // standing (zero commands) and each of the robot's presets it prints simulated seconds per wall second (a
 // rollout's wall time, plant construction included, median of --repeats) and the gait's speed, duty factors
-// and cost in both. Usage: cpgmatch-bench-mujoco [--robot morti] [--repeats 3] [--json]
+// and cost in both. Usage: cpgmatch-bench-mujoco [--robot morti] [--repeats 3] [--solver newton|cg|pgs] [--iterations N] [--json]
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
@@ -140,12 +140,15 @@ int run(int argc, char** argv) {
   std::string robot_name = "morti";
   int repeats = 3;
   bool json = false;
+  bench::MujocoSolver solver;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--robot" && i + 1 < argc) robot_name = argv[++i];
     else if (a == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
     else if (a == "--json") json = true;
-    else throw InputError("usage: cpgmatch-bench-mujoco [--robot NAME] [--repeats N] [--json]; unknown '" + a + "'");
+    else if (a == "--solver" && i + 1 < argc) solver.solver = argv[++i];
+    else if (a == "--iterations" && i + 1 < argc) solver.iterations = std::max(1, std::atoi(argv[++i]));
+    else throw InputError("usage: cpgmatch-bench-mujoco [--robot NAME] [--repeats N] [--solver newton|cg|pgs] [--iterations N] [--json]; unknown '" + a + "'");
   }
   Setup setup;
   setup.robot = load_robot(robot_name);
@@ -160,7 +163,7 @@ int run(int argc, char** argv) {
   {
     sim::OdePlant ode(setup.job.model, setup.job.terrain, 0);
     const auto t0 = Clock::now();
-    bench::MujocoPlant mj(setup.robot, setup.job.model);
+    bench::MujocoPlant mj(setup.robot, setup.job.model, solver);
     const double mj_build = seconds_since(t0);
     const Standing so = stand(ode, 5.0), sm = stand(mj, 5.0);
     if (json) {
@@ -191,9 +194,9 @@ int run(int argc, char** argv) {
         s, repeats, [&] { return std::make_unique<sim::OdePlant>(s.job.model, s.job.terrain, s.job.seed); },
         [&] { return sim::run_sim_rollout(s.job); });
     const EngineRun mj = measure(
-        s, repeats, [&] { return std::make_unique<bench::MujocoPlant>(s.robot, s.job.model); },
+        s, repeats, [&] { return std::make_unique<bench::MujocoPlant>(s.robot, s.job.model, solver); },
         [&] {
-          bench::MujocoPlant plant(s.robot, s.job.model);
+          bench::MujocoPlant plant(s.robot, s.job.model, solver);
           return run_rollout(plant, s.job.params, s.job.settings, s.job.seed);
         });
     for (const auto& [engine, e] : {std::pair<const char*, const EngineRun&>{"ode", ode}, {"mujoco", mj}}) {

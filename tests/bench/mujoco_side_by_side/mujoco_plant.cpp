@@ -82,7 +82,7 @@ struct MujocoPlant::Impl {
     return id;
   }
 
-  Impl(const RobotDescription& robot, const sim::MortiModel& mm) : model(mm) {
+  Impl(const RobotDescription& robot, const sim::MortiModel& mm, const MujocoSolver& solver) : model(mm) {
     // Where the ODE plant starts its trunk: the standing pose with the toes 1 mm above the ground.
     const double a0 = model.femur_mount_angle_rad, b0 = model.knee_stand_flexion_rad;
     const double leg_drop = model.femur.length_m * std::cos(a0) + model.shank.length_m * std::cos(a0 - b0) +
@@ -180,6 +180,11 @@ struct MujocoPlant::Impl {
       const double imp[mjNIMP] = {0.99, 0.99, 0.001, 0.5, 2.0};
       std::copy(imp, imp + mjNIMP, &m->geom_solimp[mjNIMP * g]);
     }
+    if (solver.solver == "newton") m->opt.solver = mjSOL_NEWTON;
+    else if (solver.solver == "cg") m->opt.solver = mjSOL_CG;
+    else if (solver.solver == "pgs") m->opt.solver = mjSOL_PGS;
+    else throw std::runtime_error("solver '" + solver.solver + "': expected newton, cg or pgs");
+    m->opt.iterations = solver.iterations;
     d = mj_makeData(m);
     mj_forward(m, d);
     commands = PerLeg<JointCommand>(legs.size());
@@ -269,8 +274,8 @@ struct MujocoPlant::Impl {
   }
 };
 
-MujocoPlant::MujocoPlant(const RobotDescription& robot, const sim::MortiModel& model)
-    : impl_(std::make_unique<Impl>(robot, model)) {}
+MujocoPlant::MujocoPlant(const RobotDescription& robot, const sim::MortiModel& model, const MujocoSolver& solver)
+    : impl_(std::make_unique<Impl>(robot, model, solver)) {}
 MujocoPlant::~MujocoPlant() = default;
 
 void MujocoPlant::command(const PerLeg<JointCommand>& commands) { impl_->commands = commands; }

@@ -12,12 +12,18 @@
 
 namespace cpgmatch::bench {
 
+// MuJoCo's own solver settings, to see what its speed depends on (defaults: MuJoCo's).
+struct MujocoSolver {
+  std::string solver = "newton";  // newton | cg | pgs
+  int iterations = 100;           // MuJoCo's default
+};
+
 class MujocoPlant : public Plant {
  public:
   // `robot`: the description whose URDF MuJoCo loads; `model`: the same robot as the ODE plant sees it
   // (springs, motors, contact; sim::planar_leg_model(robot)). Throws std::runtime_error with MuJoCo's
   // message when the URDF or the generated MJCF does not load.
-  MujocoPlant(const RobotDescription& robot, const sim::MortiModel& model);
+  MujocoPlant(const RobotDescription& robot, const sim::MortiModel& model, const MujocoSolver& solver = {});
   ~MujocoPlant() override;
 
   void command(const PerLeg<JointCommand>& commands) override;
