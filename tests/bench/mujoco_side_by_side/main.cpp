@@ -3,10 +3,11 @@
 // Morti's URDF is loaded by MuJoCo's own URDF import and held in the sagittal plane (mujoco_plant.hpp); the
 // gait is cpgmatch's CpgController through run_rollout in both engines, so only the physics differs. For
 // standing (zero commands) and each of the robot's presets it prints simulated seconds per wall second (a
-// rollout's wall time, plant construction included, median of --repeats) and the gait's speed, duty factors
+// rollout's wall time and CPU time, plant construction included, median of --repeats) and the gait's speed, duty factors
 // and cost in both. Usage: cpgmatch-bench-mujoco [--robot morti] [--repeats 3] [--solver newton|cg|pgs] [--iterations N] [--json]
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cstdlib>
 #include <iostream>
 #include <memory>
@@ -29,6 +30,8 @@ using namespace cpgmatch;
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+// This process's CPU time: what a rollout costs a core, whatever else the machine runs (it is shared).
+double cpu_s() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -87,6 +90,7 @@ struct EngineRun {
   double physics_s = 0.0;  // wall time inside the engine's step, first repeat
   double duty_front = -1.0, duty_hind = -1.0;
   double wall_s = 0.0;  // median over repeats, plant construction included
+  double cpu_s = 0.0;   // the same in CPU time
 };
 
 struct Setup {
@@ -103,23 +107,30 @@ EngineRun measure(const Setup& setup, int repeats, MakePlant make_plant, RunOnce
   for (const auto& leg : setup.robot.legs) meter.groups.push_back(leg.group);
   meter.on.assign(meter.groups.size(), 0.0);
   meter.ticks.assign(meter.groups.size(), 0.0);
-  std::vector<double> walls;
+  std::vector<double> walls, cpus;
   {
+    const double c0 = cpu_s();
     const auto t0 = Clock::now();
     auto plant = make_plant();
     TimedPlant timed(*plant);
     out.result = run_rollout(timed, setup.job.params, setup.job.settings, setup.job.seed, meter.sink());
     out.physics_s = timed.physics_s;
-    if (repeats == 1) walls.push_back(seconds_since(t0));
+    if (repeats == 1) {
+      walls.push_back(seconds_since(t0));
+      cpus.push_back(cpu_s() - c0);
+    }
   }
   for (int r = 1; r < repeats; ++r) {
+    const double c0 = cpu_s();
     const auto t0 = Clock::now();
     run_once();
     walls.push_back(seconds_since(t0));
+    cpus.push_back(cpu_s() - c0);
   }
   out.duty_front = meter.group("front");
   out.duty_hind = meter.group("hind");
   out.wall_s = median(walls);
+  out.cpu_s = median(cpus);
   return out;
 }
 
@@ -183,8 +194,8 @@ int run(int argc, char** argv) {
   if (!json) {
     fmt::print("\n{} s rollouts (entrain {} s + eval {} s), wall = median of {}, plant construction included\n", sim_s,
                setup.job.settings.entrain_s, setup.job.settings.eval_s, repeats);
-    fmt::print("{:<14} {:<7} {:>9} {:>8} {:>8} {:>8} {:>7} {:>6} {:>11} {:>14}\n", "preset", "engine", "cost", "speed",
-               "DF front", "DF hind", "fell", "wall s", "sim s/wall", "physics s/wall");
+    fmt::print("{:<14} {:<7} {:>9} {:>8} {:>8} {:>8} {:>7} {:>6} {:>11} {:>14} {:>11}\n", "preset", "engine", "cost", "speed",
+               "DF front", "DF hind", "fell", "wall s", "sim s/wall", "physics s/wall", "sim s/cpu s");
   }
   for (const auto& [name, values] : setup.robot.presets) {
     Setup s = setup;
@@ -202,19 +213,20 @@ int run(int argc, char** argv) {
     for (const auto& [engine, e] : {std::pair<const char*, const EngineRun&>{"ode", ode}, {"mujoco", mj}}) {
       const RolloutResult& r = e.result;
       if (json) {
-        std::cout << fmt::format(R"({{"case":"{}","engine":"{}","outcome":"{}","cost":{:.6f},"speed_mps":{:.5f},"duty_front":{:.4f},"duty_hind":{:.4f},"fell":{},"fall_time_s":{:.3f},"sim_s":{:.3f},"wall_s":{:.5f},"sim_per_wall":{:.2f},"physics_s":{:.5f},"physics_sim_per_wall":{:.1f},"terms":{{"feedback":{:.4f},"distance":{:.4f},"pitch":{:.4f},"contact":{:.4f},"periodicity":{:.4f}}},"cot":{:.4f}}})",
+        std::cout << fmt::format(R"({{"case":"{}","engine":"{}","outcome":"{}","cost":{:.6f},"speed_mps":{:.5f},"duty_front":{:.4f},"duty_hind":{:.4f},"fell":{},"fall_time_s":{:.3f},"sim_s":{:.3f},"wall_s":{:.5f},"sim_per_wall":{:.2f},"cpu_s":{:.5f},"sim_per_cpu":{:.2f},"physics_s":{:.5f},"physics_sim_per_wall":{:.1f},"terms":{{"feedback":{:.4f},"distance":{:.4f},"pitch":{:.4f},"contact":{:.4f},"periodicity":{:.4f}}},"cot":{:.4f}}})",
                                  name, engine, to_string(r.outcome), r.cost, r.breakdown.mean_speed_mps, e.duty_front,
                                  e.duty_hind, r.fell ? "true" : "false", r.fall_time_s, r.sim_time_s, e.wall_s,
-                                 r.sim_time_s / e.wall_s, e.physics_s, r.sim_time_s / e.physics_s,
+                                 r.sim_time_s / e.wall_s, e.cpu_s, r.sim_time_s / e.cpu_s, e.physics_s,
+                                 r.sim_time_s / e.physics_s,
                                  r.breakdown.terms.feedback, r.breakdown.terms.distance, r.breakdown.terms.pitch,
                                  r.breakdown.terms.contact, r.breakdown.terms.periodicity,
                                  r.energy.electrical_cost_of_transport)
                   << "\n";
       } else {
-        fmt::print("{:<14} {:<7} {:>9.4f} {:>8.4f} {:>8.3f} {:>8.3f} {:>7} {:>6.3f} {:>11.1f} {:>14.1f}\n", name, engine,
+        fmt::print("{:<14} {:<7} {:>9.4f} {:>8.4f} {:>8.3f} {:>8.3f} {:>7} {:>6.3f} {:>11.1f} {:>14.1f} {:>11.1f}\n", name, engine,
                    r.cost, r.breakdown.mean_speed_mps, e.duty_front, e.duty_hind,
                    r.fell ? fmt::format("{:.2f}s", r.fall_time_s) : std::string("no"), e.wall_s,
-                   r.sim_time_s / e.wall_s, r.sim_time_s / e.physics_s);
+                   r.sim_time_s / e.wall_s, r.sim_time_s / e.physics_s, r.sim_time_s / e.cpu_s);
         fmt::print("{:<22} terms: feedback {:.3f} distance {:.3f} pitch {:.3f} contact {:.3f} periodicity {:.3f}; "
                    "electrical CoT {:.3f}\n", "", r.breakdown.terms.feedback, r.breakdown.terms.distance,
                    r.breakdown.terms.pitch, r.breakdown.terms.contact, r.breakdown.terms.periodicity,
