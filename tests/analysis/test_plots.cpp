@@ -10,12 +10,16 @@
 
 #include <unistd.h>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "cpgmatch/analysis/gnuplot.hpp"
 #include "cpgmatch/analysis/plots.hpp"
 #include "cpgmatch/analysis/replicates.hpp"
 #include "cpgmatch/analysis/science_report.hpp"
+#include "cpgmatch/analysis/sim2real.hpp"
+#include "cpgmatch/analysis/trial.hpp"
+#include "cpgmatch/domain/report_json.hpp"
 
 namespace cpgmatch::analysis {
 namespace {
@@ -275,6 +279,61 @@ TEST(Gnuplot, AFailingScriptNamesTheScriptAndQuotesGnuplot) {
     EXPECT_NE(std::string(e.what()).find("broken.gp"), std::string::npos) << e.what();
   }
   fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cpgmatch::analysis
+
+namespace cpgmatch::analysis {
+namespace {
+
+// A synthetic rollout (cpgmatch-sim-worker --fake-rollout-ms) is marked from its report to the figure data:
+// the report's JSON carries the mark, the analysis reads it, and neither a figure's data (fig5.dat), the
+// exploration, nor the science report counts it; each says how many it left out.
+TEST_F(Plots, SyntheticRolloutsAreMarkedAndLeftOutOfEveryFigure) {
+  domain::RolloutReport fake;
+  fake.worker_id = "w";
+  fake.synthetic = true;
+  fake.summary.cost = 0.25;
+  const nlohmann::json marked = domain::to_json(fake);
+  ASSERT_TRUE(marked.value("synthetic", false)) << marked.dump();
+  EXPECT_TRUE(domain::report_from_json(marked).synthetic);
+  EXPECT_TRUE(trial_from_report(0, marked, {}).synthetic);
+  domain::RolloutReport real = fake;
+  real.synthetic = false;
+  EXPECT_FALSE(domain::to_json(real).contains("synthetic")) << "a real report keeps its shape";
+  EXPECT_FALSE(trial_from_report(0, domain::to_json(real), {}).synthetic);
+
+  StudyTrials s = synthetic_study(1);
+  int marked_count = 0;
+  for (auto& t : s.trials) {
+    if (t.trial_id % 3 == 0) {
+      t.synthetic = true;
+      t.cost = 1e6;  // would stand out in any figure that drew it
+      ++marked_count;
+    }
+  }
+  const FigureReport report = plot_study(s, dir_);
+  EXPECT_TRUE(mentions(report.not_drawn, fmt::format("every figure: {} synthetic rollouts", marked_count)));
+  std::ifstream data(dir_ / "fig5.dat");
+  std::string line;
+  int rows = 0;
+  while (std::getline(data, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const int rollout = std::stoi(line.substr(0, line.find(' ')));
+    EXPECT_NE((rollout - 1) % 3, 0) << "fig5.dat draws synthetic rollout " << rollout;
+    ++rows;
+  }
+  EXPECT_EQ(rows, static_cast<int>(s.trials.size()) - marked_count);
+
+  const StudyTrials explored = exploration_trials(s);
+  EXPECT_EQ(explored.synthetic_left_out, marked_count);
+  const ScienceReport science = science_report(explored);
+  EXPECT_EQ(science.rollouts, static_cast<int>(s.trials.size()) - marked_count);
+  EXPECT_EQ(science.synthetic_left_out, marked_count);
+  EXPECT_EQ(to_json(science).at("synthetic_left_out").get<int>(), marked_count);
+  EXPECT_GT(science.best_cost, 0.0);
+  EXPECT_LT(science.best_cost, 1e6) << "the best is a real rollout";
 }
 
 }  // namespace

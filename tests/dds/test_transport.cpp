@@ -271,6 +271,14 @@ TEST(Convert, EveryDomainValueSurvivesTheWire) {
   EXPECT_EQ(domain::to_json(back), domain::to_json(r));
   EXPECT_EQ(back.id.store_id, r.id.store_id);
   EXPECT_EQ(back.id.attempt, 2);
+  EXPECT_FALSE(back.synthetic);
+  // A service benchmark's synthetic report keeps its mark across the wire (issue 32).
+  domain::RolloutReport fake = r;
+  fake.worker_kind = domain::WorkerKind::kSimulation;
+  fake.outcome = domain::Outcome::kCompleted;
+  fake.synthetic = true;
+  EXPECT_TRUE(to_wire(fake).synthetic());
+  EXPECT_TRUE(from_wire(to_wire(fake)).synthetic);
 
   domain::Candidate c;
   c.id = r.id;

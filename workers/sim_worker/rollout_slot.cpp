@@ -102,6 +102,7 @@ domain::RolloutReport execute_candidate(const domain::Candidate& c, const SlotOp
       cost += u * u;
     }
     r.outcome = domain::Outcome::kCompleted;
+    r.synthetic = true;  // marked through the wire, the store and every export; never in a figure
     r.summary.cost = cost;
     r.summary.distance_m = r.summary.mean_speed_mps = 0.0;  // nothing moved: a delay, not a gait
     r.summary.normalized_torque = r.summary.summed_torque_nm = 0.0;

@@ -200,6 +200,7 @@ msg::RolloutReport to_wire(const domain::RolloutReport& r) {
     w.knee_electrical_j()[leg] = e.knee[leg].electrical_j;
     w.knee_signed_mean_torque_nm()[leg] = e.knee[leg].signed_mean_torque_nm;
   }
+  w.synthetic(r.synthetic);
   return w;
 }
 
@@ -236,6 +237,7 @@ domain::RolloutReport from_wire(const msg::RolloutReport& w) {
   r.loop.jitter_p99_us = w.loop_jitter_p99_us();
   r.loop.jitter_max_us = w.loop_jitter_max_us();
   r.loop.overruns = clamped(w.loop_overruns());
+  r.synthetic = w.synthetic();
   EnergyMeasures& e = s.energy;
   e.positive_work_j = w.positive_work_j();
   e.joule_loss_j = w.joule_loss_j();

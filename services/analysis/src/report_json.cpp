@@ -51,6 +51,7 @@ nlohmann::json to_json(const ScienceReport& r) {
       {"study_id", r.study_id},
       {"rollouts", r.rollouts},
       {"failed_evaluations", r.failed_evaluations},
+      {"synthetic_left_out", r.synthetic_left_out},
       {"initial_points", r.initial_points},
       {"falls",
        {{"total", r.falls},

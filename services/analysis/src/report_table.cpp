@@ -29,6 +29,7 @@ std::vector<TableRow> report_rows(const nlohmann::json& report) {
       {"    distance to the best so far: walked", "falls.after_locations.walked_distance_to_best_median", 2},
       {"    falls within 0.15 of the best so far", "falls.after_locations.falls_near_best", 0},
       {"failed evaluations (did not run)", "failed_evaluations", 0},
+      {"synthetic rollouts left out (--fake-rollout-ms, no gait)", "synthetic_left_out", 0},
   };
   const auto& windows = report.value("windows", nlohmann::json::array());
   for (std::size_t i = 0; i < windows.size(); ++i) {

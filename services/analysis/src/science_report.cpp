@@ -104,6 +104,7 @@ ScienceReport science_report(const StudyTrials& s, const ReportOptions& o) {
   r.name = s.name;
   r.study_id = s.study_id;
   r.rollouts = static_cast<int>(s.trials.size());
+  r.synthetic_left_out = s.synthetic_left_out;
   r.initial_points = s.initial_points;
   const int n = r.rollouts;
 

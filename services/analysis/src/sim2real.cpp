@@ -41,10 +41,12 @@ nlohmann::json jnum(double v) { return std::isfinite(v) ? nlohmann::json(v) : nl
 }  // namespace
 
 StudyTrials exploration_trials(const StudyTrials& s) {
-  bool any_sim = false;
-  for (const auto& r : s.trials) any_sim |= !r.hardware;
-  if (!any_sim) return s;
+  // Synthetic rollouts measured no gait: never drawn or summarised, only counted.
   StudyTrials out = s;
+  out.synthetic_left_out += static_cast<int>(std::erase_if(out.trials, [](const Trial& r) { return r.synthetic; }));
+  bool any_sim = false;
+  for (const auto& r : out.trials) any_sim |= !r.hardware;
+  if (!any_sim) return out;
   std::erase_if(out.trials, [](const Trial& r) { return r.hardware; });
   return out;
 }
@@ -56,7 +58,7 @@ Sim2RealTable sim2real_table(const StudyTrials& s) {
   std::vector<const Trial*> sim, hw;
   const Trial* best = nullptr;
   for (const auto& r : s.trials) {
-    if (!r.ok) continue;  // an evaluation that did not run has no cost terms
+    if (!r.ok || r.synthetic) continue;  // no cost terms: it did not run, or ran no gait
     (r.hardware ? hw : sim).push_back(&r);
     if (!r.hardware && std::isfinite(r.cost) && (best == nullptr || r.cost < best->cost)) best = &r;
   }

@@ -309,13 +309,20 @@ void draw_figure(const fs::path& dir, const FigureScript& figure, FigureReport& 
   }
 }
 
-FigureReport plot_study(const StudyTrials& s, const fs::path& out_dir) {
+FigureReport plot_study(const StudyTrials& given, const fs::path& out_dir) {
   if (!gnuplot_available()) throw PlotError("gnuplot not found on PATH: no figures (install gnuplot-nox)");
+  // Synthetic rollouts (--fake-rollout-ms) measured no gait: no figure draws them, whoever calls this.
+  StudyTrials s = given;
+  s.synthetic_left_out += static_cast<int>(std::erase_if(s.trials, [](const Trial& t) { return t.synthetic; }));
   const fs::path dir = fs::absolute(out_dir);
   fs::create_directories(dir);
   const fs::path trials = dir / "fig5.dat";
   write_trials_data(s, trials);
   FigureReport report;
+  if (s.synthetic_left_out > 0) {
+    report.not_drawn.push_back(fmt::format("every figure: {} synthetic rollout{} (--fake-rollout-ms, no gait) left out",
+                                           s.synthetic_left_out, s.synthetic_left_out == 1 ? "" : "s"));
+  }
   draw_figure(dir, fig5a(s, trials), report);
   draw_figure(dir, fig5b(s, trials), report);
   draw_figure(dir, fig6(s, dir / "fig6.dat"), report);

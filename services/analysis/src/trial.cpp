@@ -20,6 +20,7 @@ Trial trial_from_report(int trial_id, const nlohmann::json& report, std::map<std
   t.params = std::move(params);
   t.ok = report.is_object() && report.value("ok", false);
   t.hardware = report.is_object() && report.value("worker_kind", std::string()) == "hardware";
+  t.synthetic = report.is_object() && report.value("synthetic", false);
   t.outcome = report.is_object() && report.contains("outcome") && report["outcome"].is_string()
                   ? report["outcome"].get<std::string>()
                   : std::string();

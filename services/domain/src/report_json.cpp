@@ -119,6 +119,8 @@ nlohmann::json to_json(const RolloutReport& r) {
                  {"jitter_max_us", number(r.loop.jitter_max_us)},
                  {"overruns", r.loop.overruns}};
   }
+  // Written only when set: a real rollout's report keeps its shape (and a study its bytes).
+  if (r.synthetic) j["synthetic"] = true;
   return j;
 }
 
@@ -130,6 +132,7 @@ RolloutReport report_from_json(const nlohmann::json& j) {
   r.worker_id = j.at("worker_id").get<std::string>();
   r.worker_kind = j.at("worker_kind").get<std::string>() == "hardware" ? WorkerKind::kHardware : WorkerKind::kSimulation;
   r.error = j.at("error").get<std::string>();
+  r.synthetic = j.value("synthetic", false);
   const bool ok = j.at("ok").get<bool>();
   if (j.contains("outcome")) {
     const auto outcome = outcome_from_string(j.at("outcome").get<std::string>());

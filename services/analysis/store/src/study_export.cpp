@@ -98,6 +98,8 @@ ExportedStudy export_study(const study::StoredStudy& stored) {
     c["fall_time_s"] = c["fell"].get<bool>() ? fall_time : Json(nullptr);
     c["worker_id"] = t.worker_id;
     c["worker_kind"] = report_text(r, "worker_kind");
+    // A service benchmark's synthetic cost (cpgmatch-sim-worker --fake-rollout-ms): no gait was simulated.
+    c["synthetic"] = r.is_object() && r.value("synthetic", false);
     c["attempt"] = t.attempt;
     c["faults"] = t.faults;
     c["issued_at"] = number(t.issued_at_s);

@@ -66,6 +66,7 @@ struct ScienceReport {
   int study_id = 0;
   int rollouts = 0;
   int failed_evaluations = 0;  // the rollout could not run at all (not a fall)
+  int synthetic_left_out = 0;  // synthetic rollouts (--fake-rollout-ms) not counted anywhere in this report
   int initial_points = 0;
   int falls = 0, falls_initial = 0, falls_after = 0;
   FallLocations falls_after_locations;  // at the space's corners or next to the best (fall_locations.hpp)

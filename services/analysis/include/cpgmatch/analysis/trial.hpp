@@ -31,6 +31,9 @@ struct Trial {
   EnergyMeasures energy;           // what the motors spent (energy.hpp); NaN in stores from before energy
   std::map<std::string, double> params;  // every parameter of the rollout (optimised and fixed)
   bool hardware = false;           // run by a hardware worker (the report's worker_kind)
+  // No gait was simulated: a service benchmark's synthetic cost (the report's `synthetic`). Never in a
+  // figure or the science report (exploration_trials leaves it out and counts it).
+  bool synthetic = false;
   std::string outcome;             // the report's outcome (completed, fell, error, refused, ...); empty: an older store
 
   bool walked() const { return ok && !fell; }
@@ -56,6 +59,9 @@ struct StudyTrials {
   std::uint64_t seed = 0;          // the study's seed (its rollouts' seed too)
   std::map<std::string, Bounds> bounds;  // the optimised parameters and their search ranges
   std::vector<Trial> trials;       // ordered by trial_id
+  // Synthetic rollouts (Trial::synthetic) that exploration_trials took out of `trials`: figures and the
+  // science report say how many they left out.
+  int synthetic_left_out = 0;
   // The optimizer's view, for the figures of its model (surrogate.hpp). Empty dimensions: the `bounds`,
   // linear, in name order (a hand-made study).
   std::vector<SearchDimension> dimensions;  // in the optimizer's order (its model's inputs)

@@ -57,6 +57,9 @@ struct RolloutReport {
   RolloutSummary summary;
   double wall_time_s = 0.0; // the worker's wall time for the rollout, seconds
   LoopTiming loop;
+  // No gait was simulated: a service benchmark's synthetic cost (cpgmatch-sim-worker --fake-rollout-ms).
+  // Kept in the store and every export, marked; never in a figure or the science report.
+  bool synthetic = false;
 
   bool ok() const { return measured(outcome); }  // it ran (a fall is ok)
   bool fell() const { return outcome == Outcome::kFell; }
