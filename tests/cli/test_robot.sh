@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `cpgmatch robot list|check|init` and `rollout --robot` through the real executable (issue 31): every shipped
 # robot is listed and checks clean (it stands for 3 s), `init` on each shipped URDF writes a skeleton that
-# names every joint and guesses the shipped robot's own legs, a TODO left in is refused with its line, and
+# names every joint and guesses the shipped robot's own legs, a FILL_IN left in is refused with its line, and
 # bad descriptions exit 2 naming the element and file:line.
 set -u
 bin="$1"
@@ -35,7 +35,7 @@ hips = sorted(l["hip"] for l in json.load(open(sys.argv[1]))["legs"])
 guessed = sorted(re.findall(r"^  - \{name: .*hip: ([^,}\s]+)", open(sys.argv[2]).read(), re.M))
 sys.exit(0 if hips == guessed else 1)
 PY
-  check "a skeleton's TODO is refused with its line" expect_exit 2 "robot.yaml:[0-9]*: field '.*' is still TODO" "$bin" robot check "$tmp/init-$robot"
+  check "a skeleton's FILL_IN is refused with its line" expect_exit 2 "robot.yaml:[0-9]*: field '.*' is still FILL_IN" "$bin" robot check "$tmp/init-$robot"
 done
 check "init refuses to overwrite" expect_exit 2 "already holds a robot.yaml" "$bin" robot init --urdf "$dir" --out "$tmp/init-$robot"
 

@@ -139,7 +139,7 @@ int init(const std::string& urdf_path, const std::string& out_dir, bool force) {
     fmt::print("  {:<12} {:<7} hip {}, knee {}{}, foot {}\n", l.name, l.group, l.hip, l.knee.empty() ? "?" : l.knee,
                l.ankle.empty() ? "" : ", ankle " + l.ankle, l.foot);
   }
-  fmt::print("next: fill in every TODO in {}/robot.yaml, then `cpgmatch robot check {}` (docs/your-robot.md)\n", out_dir, out_dir);
+  fmt::print("next: fill in every FILL_IN in {}/robot.yaml, then `cpgmatch robot check {}` (docs/your-robot.md)\n", out_dir, out_dir);
   return 0;
 }
 
@@ -171,7 +171,7 @@ void add_robot_command(CLI::App& app) {
   check_cmd->callback([which, check_json] { check(*which, *check_json); });
 
   CLI::App* init_cmd = robot->add_subcommand("init", "write a robot.yaml skeleton from a URDF: every joint and link named, "
-                                                     "legs and feet guessed, TODO where only you know the value");
+                                                     "legs and feet guessed, FILL_IN where only you know the value");
   auto urdf = std::make_shared<std::string>();
   auto out = std::make_shared<std::string>();
   auto force = std::make_shared<bool>(false);

@@ -108,10 +108,10 @@ std::string robot_yaml_skeleton(const UrdfModel& urdf, const std::string& urdf_f
   const std::vector<GuessedLeg> legs = guess_legs(urdf);
   std::string y;
   y += fmt::format("# robot.yaml for '{}', written by `cpgmatch robot init` from {}.\n", urdf.robot_name, urdf_file_name);
-  y += "# SI units: m, kg, s, rad, N m. Every value marked TODO is yours to give (with its source);\n";
-  y += "# `cpgmatch robot check DIR` refuses a TODO left in, naming its line. docs/your-robot.md walks through it.\n";
+  y += "# SI units: m, kg, s, rad, N m. Every value marked FILL_IN is yours to give (with its source);\n";
+  y += "# `cpgmatch robot check DIR` refuses a FILL_IN left in, naming its line. docs/your-robot.md walks through it.\n";
   y += fmt::format("name: {}\n", urdf.robot_name.empty() ? "my-robot" : urdf.robot_name);
-  y += "summary: \"TODO: one line: what the robot is and where its values come from\"\n";
+  y += "summary: \"FILL_IN: one line: what the robot is and where its values come from\"\n";
   y += fmt::format("urdf: {}\n", urdf_file_name);
   y += "planar: true   # a rail or boom keeps the trunk in the sagittal plane (this version simulates planar robots)\n\n";
   y += fmt::format("# The URDF's {} links: ", urdf.links.size());
@@ -126,29 +126,29 @@ std::string robot_yaml_skeleton(const UrdfModel& urdf, const std::string& urdf_f
   y += "legs:\n";
   for (const auto& l : legs) {
     y += fmt::format("  - {{name: {}, group: {}, hip: {}, knee: {}{}, foot: {}}}{}\n", l.name, l.group, l.hip,
-                     l.knee.empty() ? "TODO" : l.knee, l.ankle.empty() ? "" : ", ankle: " + l.ankle, l.foot,
-                     l.knee.empty() ? "   # TODO: no single knee found after this hip" : "");
+                     l.knee.empty() ? "FILL_IN" : l.knee, l.ankle.empty() ? "" : ", ankle: " + l.ankle, l.foot,
+                     l.knee.empty() ? "   # FILL_IN: no single knee found after this hip" : "");
   }
   y += "\nmotors:\n";
   y += "  hip_motor:\n";
-  y += "    stall_torque_nm: {value: TODO, source: \"TODO: datasheet, at the joint (after the gearbox)\"}\n";
-  y += "    no_load_speed_rad_s: {value: TODO, source: \"TODO\"}\n";
-  y += "    gear_ratio: {value: TODO, source: \"TODO\"}\n";
+  y += "    stall_torque_nm: {value: FILL_IN, source: \"FILL_IN: datasheet, at the joint (after the gearbox)\"}\n";
+  y += "    no_load_speed_rad_s: {value: FILL_IN, source: \"FILL_IN\"}\n";
+  y += "    gear_ratio: {value: FILL_IN, source: \"FILL_IN\"}\n";
   y += "  knee_motor:\n";
-  y += "    stall_torque_nm: {value: TODO, source: \"TODO\"}\n";
-  y += "    no_load_speed_rad_s: {value: TODO, source: \"TODO\"}\n\n";
+  y += "    stall_torque_nm: {value: FILL_IN, source: \"FILL_IN\"}\n";
+  y += "    no_load_speed_rad_s: {value: FILL_IN, source: \"FILL_IN\"}\n\n";
   y += "drives:\n";
-  y += "  hip: {kind: position_pd, motor: hip_motor, kp_nm_per_rad: TODO, kd_nm_s_per_rad: TODO}\n";
+  y += "  hip: {kind: position_pd, motor: hip_motor, kp_nm_per_rad: FILL_IN, kd_nm_s_per_rad: FILL_IN}\n";
   y += "  # series_elastic: the motor positions a spring's rest angle; position_pd: it drives the knee directly\n";
-  y += "  knee: {kind: series_elastic, motor: knee_motor, stiffness_nm_per_rad: TODO, damping_nm_s_per_rad: TODO, bandwidth_per_s: TODO}\n";
+  y += "  knee: {kind: series_elastic, motor: knee_motor, stiffness_nm_per_rad: FILL_IN, damping_nm_s_per_rad: FILL_IN, bandwidth_per_s: FILL_IN}\n";
   const bool ankles = std::any_of(legs.begin(), legs.end(), [](const GuessedLeg& l) { return !l.ankle.empty(); });
   if (ankles) {
     y += "  ankle: {kind: passive}\n\n";
     y += "# Springs between a leg's links (e.g. a biarticular spring holding the foot parallel to the femur):\n";
     y += "parallel_springs:\n";
-    y += "  - {name: TODO, from: hip, to: ankle, stiffness_nm_per_rad: TODO, damping_nm_s_per_rad: TODO}\n";
+    y += "  - {name: FILL_IN, from: hip, to: ankle, stiffness_nm_per_rad: FILL_IN, damping_nm_s_per_rad: FILL_IN}\n";
   }
-  y += "\ncontact: {friction: TODO, stiffness_n_per_m: TODO, damping_n_s_per_m: TODO}\n";
+  y += "\ncontact: {friction: FILL_IN, stiffness_n_per_m: FILL_IN, damping_n_s_per_m: FILL_IN}\n";
   y += "foot_sensor: {sensitivity: 1.0, time_constant_s: 0.0}   # an ideal contact sensor; say otherwise if yours lags\n";
   y += "simulation: {physics_rate_hz: 1000.0, gravity_m_s2: 9.81}\n\n";
   y += "# Phase offsets in cycles, one per leg in the order of `legs`. Guessed: left and right of a row half a\n";
@@ -157,11 +157,11 @@ std::string robot_yaml_skeleton(const UrdfModel& urdf, const std::string& urdf_f
   y += fmt::format("  alternating: {}\n", list(alternating_offsets(legs)));
   y += "default_gait: alternating\n\n";
   y += "presets:\n";
-  y += "  default: {hip_offset: 0.0, hip_amplitude: TODO, knee_amplitude: TODO, frequency: TODO, duty_factor_front: 0.5, duty_factor_hind: 0.5, knee_phase_shift: 0.1, overswing: 0.1}\n\n";
+  y += "  default: {hip_offset: 0.0, hip_amplitude: FILL_IN, knee_amplitude: FILL_IN, frequency: FILL_IN, duty_factor_front: 0.5, duty_factor_hind: 0.5, knee_phase_shift: 0.1, overswing: 0.1}\n\n";
   y += "# The CPG parameters a study tunes (names from `cpgmatch rollout --help`'s parameters), with bounds:\n";
   y += "search_space:\n";
-  y += "  hip_offset: {low: TODO, high: TODO, unit: rad}\n";
-  y += "  hip_amplitude: {low: TODO, high: TODO, unit: rad}\n";
+  y += "  hip_offset: {low: FILL_IN, high: FILL_IN, unit: rad}\n";
+  y += "  hip_amplitude: {low: FILL_IN, high: FILL_IN, unit: rad}\n";
   y += "  duty_factor_front: {low: 0.3, high: 0.75}\n";
   y += "  duty_factor_hind: {low: 0.3, high: 0.75}\n";
   return y;

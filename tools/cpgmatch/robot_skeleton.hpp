@@ -1,7 +1,7 @@
 // `cpgmatch robot init`: a robot.yaml skeleton from a URDF, as CHAMP's setup assistant makes one. It names
 // every joint and link of the URDF, guesses the legs (a hip hanging from the trunk, a knee after it, an
 // optional ankle, the last link as the foot) and their groups (by the hips' fore-aft position), proposes
-// gaits for the leg count, and marks with TODO what only the user knows (motors, springs, gains): a TODO
+// gaits for the leg count, and marks with FILL_IN what only the user knows (motors, springs, gains): a FILL_IN
 // left in is refused by `cpgmatch robot check`, naming its line.
 #pragma once
 

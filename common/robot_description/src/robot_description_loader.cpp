@@ -236,12 +236,12 @@ void parse_presets(const YamlReader& r, RobotDescription& robot) {
   }
 }
 
-// A value `cpgmatch robot init` marked for the user and the user has not given yet: "TODO" or "TODO: ...".
+// A value `cpgmatch robot init` marked for the user and the user has not given yet: "FILL_IN" or "FILL_IN: ...".
 void refuse_todo(const YAML::Node& node, const std::string& source, const std::string& path) {
   if (node.IsScalar()) {
     const std::string v = node.Scalar();
-    if (v == "TODO" || v.rfind("TODO:", 0) == 0) {
-      throw InputError(fmt::format("{}:{}: field '{}' is still TODO: give its value (docs/your-robot.md)", source,
+    if (v == "FILL_IN" || v.rfind("FILL_IN:", 0) == 0) {
+      throw InputError(fmt::format("{}:{}: field '{}' is still FILL_IN: give its value (docs/your-robot.md)", source,
                                    node.Mark().line + 1, path));
     }
   } else if (node.IsMap()) {
