@@ -53,7 +53,7 @@ struct Options {
 
 // Dry friction added to every hip gearbox and knee bearing: a robot that is stiffer than its model.
 // The simulated body must have the legs the hardware description drives.
-RobotConfig checked_against(RobotConfig config, const sim::MortiModel& model) {
+RobotConfig checked_against(RobotConfig config, const sim::PlanarLegModel& model) {
   if (static_cast<std::size_t>(config.leg_count()) != model.leg_count()) {
     throw InputError(fmt::format("{} describes {} legs; the simulated model has {}", config.source, config.leg_count(),
                                  model.leg_count()));
@@ -61,7 +61,7 @@ RobotConfig checked_against(RobotConfig config, const sim::MortiModel& model) {
   return config;
 }
 
-sim::MortiModel with_extra_friction(sim::MortiModel model, double extra_nm) {
+sim::PlanarLegModel with_extra_friction(sim::PlanarLegModel model, double extra_nm) {
   model.hip_motor.coulomb_friction_nm += extra_nm;
   model.knee_joint_friction_nm += extra_nm;
   return model;
@@ -211,7 +211,7 @@ class Emulator {
   }
 
   Options options_;
-  sim::MortiModel model_;
+  sim::PlanarLegModel model_;
   sim::TerrainSpec terrain_;
   RobotConfig config_;
   std::unique_ptr<can::CanBus> bus_;

@@ -25,9 +25,9 @@ namespace fs = std::filesystem;
 
 CpgParameters matched_trot() { return load_parameters(sim::config_dir() + "/params/matched-trot.yaml"); }
 RolloutSettings settings() { return load_rollout_settings(sim::default_rollout_settings_path()); }
-sim::MortiModel model(const std::string& name) { return sim::load_morti_model(sim::config_dir() + "/model/" + name + ".yaml"); }
+sim::PlanarLegModel model(const std::string& name) { return sim::load_morti_model(sim::config_dir() + "/model/" + name + ".yaml"); }
 
-sim::SimRolloutJob job(const sim::MortiModel& m, std::uint64_t seed, double seconds) {
+sim::SimRolloutJob job(const sim::PlanarLegModel& m, std::uint64_t seed, double seconds) {
   sim::SimRolloutJob j;
   j.params = matched_trot();
   j.settings = settings();
@@ -38,7 +38,7 @@ sim::SimRolloutJob job(const sim::MortiModel& m, std::uint64_t seed, double seco
   return j;
 }
 
-MeasuredTrace recorded(const sim::MortiModel& m, std::uint64_t seed, double seconds) {
+MeasuredTrace recorded(const sim::PlanarLegModel& m, std::uint64_t seed, double seconds) {
   MeasuredTrace trace;
   trace.source = "seed " + std::to_string(seed);
   sim::run_sim_rollout(job(m, seed, seconds), record_trace(trace));
@@ -117,7 +117,7 @@ TEST(MeasuredTrace, BadCsvNamesLineAndColumn) {
 }
 
 TEST(TraceReplay, OnTheModelThatMadeItGivesTheTraceAgain) {
-  const sim::MortiModel m = model("morti");
+  const sim::PlanarLegModel m = model("morti");
   const MeasuredTrace trace = recorded(m, 4, 2.0);
   const CalibrationTrace prepared = prepare_trace(trace, matched_trot(), settings(), {}, 4, 2.0);
   const auto replayed = replay(m, prepared.commands, prepared.setup);
@@ -155,7 +155,7 @@ TEST(ModelValues, UnknownOrRepeatedNamesAreRefused) {
 // worn-knee-spring scenario), measured with sensor noise; calibration starts from the model and must find
 // the softer spring within 10%.
 TEST(Calibration, RecoversAKneeSpring20PercentSofter) {
-  const sim::MortiModel robot = model("worn-knee-spring");
+  const sim::PlanarLegModel robot = model("worn-knee-spring");
   const double truth = robot.knee_spring.stiffness_nm_per_rad;
   ASSERT_NEAR(truth, 0.8 * model("morti").knee_spring.stiffness_nm_per_rad, 1e-9);
   std::vector<CalibrationTrace> traces;
@@ -184,7 +184,7 @@ TEST(Calibration, RecoversAKneeSpring20PercentSofter) {
   std::ifstream in(sim::default_model_path());
   const std::string start_text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::string text = calibrated_model_text(start_text, "morti.yaml", result, {"a.csv", "b.csv"});
-  const sim::MortiModel calibrated = sim::parse_morti_model(YamlReader::from_string(text, "calibrated"));
+  const sim::PlanarLegModel calibrated = sim::parse_morti_model(YamlReader::from_string(text, "calibrated"));
   EXPECT_NEAR(calibrated.knee_spring.stiffness_nm_per_rad, k.estimate, 1e-4 * k.estimate);
   EXPECT_EQ(calibrated.trunk_mass_kg, model("morti").trunk_mass_kg);
   EXPECT_NE(text.find("calibrated: estimate"), std::string::npos);

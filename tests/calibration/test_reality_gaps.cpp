@@ -111,7 +111,7 @@ TEST(RealityGaps, EachLoadsAndRuns2s) {
 
 TEST(RealityGaps, PhysicsDiffersAsTheCauseSays) {
   const ScenarioRun morti = rollout("morti");
-  const sim::MortiModel base = sim::load_morti_model(sim::default_model_path());
+  const sim::PlanarLegModel base = sim::load_morti_model(sim::default_model_path());
   {
     // 20% softer knee springs under the same standing load deflect 1/0.8 = 1.25 times as far.
     const ScenarioRun worn = rollout("worn-knee-spring");

@@ -19,7 +19,7 @@ struct KneeDrive {
 
 // A standing robot, settled for 1 s, then told to stretch all knees by 0.5 rad at once: lifting the body
 // through the knee springs loads the knee motors while they run at their fastest.
-std::vector<KneeDrive> knee_drives_while_lifting(const MortiModel& model) {
+std::vector<KneeDrive> knee_drives_while_lifting(const PlanarLegModel& model) {
   OdePlant plant(model, TerrainSpec{}, 1);
   PerLeg<JointCommand> stand(test::kNumLegs);
   for (auto& c : stand) c.hip_angle_rad = -0.1;  // toes under the hips
@@ -38,7 +38,7 @@ std::vector<KneeDrive> knee_drives_while_lifting(const MortiModel& model) {
 }
 
 TEST(MotorPhysics, TheKneeMotorRunsOnTheHipsTorqueSpeedLine) {
-  const MortiModel model = load_morti_model(default_model_path());
+  const PlanarLegModel model = load_morti_model(default_model_path());
   ASSERT_EQ(model.knee_motor.stall_torque_nm, model.hip_motor.stall_torque_nm);  // the same motor
   ASSERT_EQ(model.knee_motor.no_load_speed_rad_s, model.hip_motor.no_load_speed_rad_s);
   const DcMotorLine line{model.knee_motor.stall_torque_nm, model.knee_motor.no_load_speed_rad_s};

@@ -119,7 +119,7 @@ TEST(Physics, FeetSettleWithoutBouncing) {
 }
 
 // Largest excursion of the front-left hip during `passive_s` with every hip motor passive, from standing.
-double passive_hip_excursion(const MortiModel& model, double passive_s) {
+double passive_hip_excursion(const PlanarLegModel& model, double passive_s) {
   OdePlant plant(model, TerrainSpec::parse("flat"), 0);
   PerLeg<JointCommand> cmd(test::kNumLegs);
   cmd[kFrontLeft].hip_angle_rad = 0.3;  // stand with the FL leg 0.3 rad forward: its hip is loaded off-centre
@@ -174,8 +174,8 @@ TEST(Physics, APassiveHipResistsLikeABackdrivenGearedMotor) {
   // Standing, the FL hip held 0.3 rad forward, then every hip motor passive for the reflex's 0.12 s: the
   // loaded legs push the hips around. A back-driven gearbox (friction, reflected rotor inertia) slows that
   // down; a free hinge (the same model with the gearbox removed) gives way much faster.
-  const MortiModel geared = load_morti_model(default_model_path());
-  MortiModel free_hinge = geared;
+  const PlanarLegModel geared = load_morti_model(default_model_path());
+  PlanarLegModel free_hinge = geared;
   free_hinge.hip_motor.coulomb_friction_nm = 0.0;
   free_hinge.hip_motor.viscous_friction_nm_s_per_rad = 0.0;
   free_hinge.hip_motor.reflected_inertia_kg_m2 = 0.0;
@@ -186,7 +186,7 @@ TEST(Physics, APassiveHipResistsLikeABackdrivenGearedMotor) {
 }
 
 // Flexion (relative to standing) the FL knee settles at when commanded to `command_rad` for 1 s.
-double knee_flexion_after(const MortiModel& model, double command_rad) {
+double knee_flexion_after(const PlanarLegModel& model, double command_rad) {
   OdePlant plant(model, TerrainSpec::parse("flat"), 0);
   PerLeg<JointCommand> cmd(test::kNumLegs);
   plant.command(cmd);
@@ -200,7 +200,7 @@ double knee_flexion_after(const MortiModel& model, double command_rad) {
 TEST(Physics, KneeStopsHoldTheFlexionInsideItsMechanicalRange) {
   // Stops moved to 0.3 rad above and 0.1 rad below the standing flexion, and the knee commanded well past
   // each: the joint must settle at the stop (the motor pushes its stall torque through the spring into it).
-  MortiModel model = load_morti_model(default_model_path());
+  PlanarLegModel model = load_morti_model(default_model_path());
   const double stand = model.knee_stand_flexion_rad;
   const double free_flex = knee_flexion_after(model, 0.6);
   ASSERT_GT(free_flex, 0.45) << "without a stop in the way the knee follows the command";

@@ -48,8 +48,8 @@ TEST(MortiFromUrdf, LegsJointsAndGroupsAreTheYamls) {
 
 // Every value of the simulation's model, read from the URDF and robot.yaml, equals the hand-written file's.
 TEST(MortiFromUrdf, ModelEqualsTheHandWrittenModel) {
-  const sim::MortiModel from_urdf = sim::planar_leg_model(load_robot("morti"));
-  const sim::MortiModel by_hand = sim::load_morti_model(sim::default_model_path());
+  const sim::PlanarLegModel from_urdf = sim::planar_leg_model(load_robot("morti"));
+  const sim::PlanarLegModel by_hand = sim::load_morti_model(sim::default_model_path());
   auto expect_near = [](double a, double b, const char* what) { EXPECT_NEAR(a, b, 1e-12 * std::max(1.0, std::abs(b))) << what; };
   expect_near(from_urdf.trunk_mass_kg, by_hand.trunk_mass_kg, "trunk mass");
   expect_near(from_urdf.trunk_length_m, by_hand.trunk_length_m, "trunk length");
@@ -95,7 +95,7 @@ TEST(MortiFromUrdf, ModelEqualsTheHandWrittenModel) {
 // about their pitch axis (URDF y) and the other two.
 TEST(MortiFromUrdf, InertiasAreThePlantsBodies) {
   const RobotDescription robot = load_robot("morti");
-  const sim::MortiModel m = sim::load_morti_model(sim::default_model_path());
+  const sim::PlanarLegModel m = sim::load_morti_model(sim::default_model_path());
   auto bar = [](double mass, double length) {
     return std::array<double, 3>{mass / 12 * (length * length + 0.0004), mass / 12 * (length * length + 0.0004), mass / 12 * 0.0008};
   };
@@ -118,7 +118,7 @@ TEST(MortiFromUrdf, InertiasAreThePlantsBodies) {
 
 TEST(MortiFromUrdf, TotalMassAndStandingHeightAreThePlants) {
   const RobotDescription robot = load_robot("morti");
-  const sim::MortiModel m = sim::load_morti_model(sim::default_model_path());
+  const sim::PlanarLegModel m = sim::load_morti_model(sim::default_model_path());
   EXPECT_NEAR(robot.total_mass_kg(), m.total_mass_kg(), 1e-12);
   EXPECT_NEAR(robot.total_mass_kg(), 3.88, 1e-12);
   sim::OdePlant plant(m, sim::TerrainSpec{}, 0);
@@ -231,15 +231,15 @@ TEST_P(ShippedWalkers, LegsAreTheHardwareFilesTwoSegmentsEach) {
     EXPECT_EQ(robot.legs[i].knee_joint, w.legs[i] + "_knee");
     EXPECT_TRUE(robot.legs[i].ankle_joint.empty()) << "two-segment legs";
   }
-  const sim::MortiModel m = sim::planar_leg_model(robot);
+  const sim::PlanarLegModel m = sim::planar_leg_model(robot);
   EXPECT_FALSE(m.has_ankle);
   EXPECT_EQ(m.leg_count(), w.legs.size());
-  EXPECT_EQ(m.knee_drive, sim::MortiModel::KneeDrive::kPositionPd);  // unlike Morti's series-elastic knee
+  EXPECT_EQ(m.knee_drive, sim::PlanarLegModel::KneeDrive::kPositionPd);  // unlike Morti's series-elastic knee
 }
 
 TEST_P(ShippedWalkers, StandsThreeSeconds) {
   const RobotDescription robot = load_robot(GetParam().robot);
-  const sim::MortiModel m = sim::planar_leg_model(robot);
+  const sim::PlanarLegModel m = sim::planar_leg_model(robot);
   sim::OdePlant plant(m, sim::TerrainSpec{}, 0);
   const double start = plant.state().trunk.height_m;
   EXPECT_NEAR(start, sim::standing_trunk_height_m(robot), 1e-9);
@@ -376,7 +376,7 @@ TEST(SixLegs, TheTripodGaitLocksInSimulation) {
   const RobotDescription robot = parse_robot(texts.yaml, "six.yaml", texts.urdf, "six.urdf");
   ASSERT_EQ(robot.legs.size(), 6u);
   EXPECT_EQ(robot.groups, (std::vector<std::string>{"front", "middle", "hind"}));
-  const sim::MortiModel model = sim::planar_leg_model(robot);
+  const sim::PlanarLegModel model = sim::planar_leg_model(robot);
   EXPECT_EQ(model.leg_count(), 6u);
   EXPECT_NEAR(model.total_mass_kg(), 3.0 + 6 * 0.22, 1e-12);
 

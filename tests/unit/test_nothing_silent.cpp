@@ -74,7 +74,7 @@ TEST(PhysicalRanges, AbsurdButFiniteValuesAreRefusedNamingFileLineAndField) {
 }
 
 TEST(PhysicalRanges, TheCheckNamesTheFirstValueOutsideAndItsRange) {
-  sim::MortiModel m;
+  sim::PlanarLegModel m;
   EXPECT_FALSE(sim::check_physical_ranges(m).has_value());
   m.shank.mass_kg = 1e308;
   const auto p = sim::check_physical_ranges(m);

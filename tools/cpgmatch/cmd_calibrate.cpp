@@ -92,7 +92,7 @@ void print_result(const cal::CalibrationResult& r, const std::string& out) {
 
 // The cost along each fitted value's axis through the start model (the others held): is the objective
 // smooth enough near the answer for a gradient method?
-void print_scan(cal::Calibration& calibration, const sim::MortiModel& start, const std::vector<const cal::ModelValue*>& values,
+void print_scan(cal::Calibration& calibration, const sim::PlanarLegModel& start, const std::vector<const cal::ModelValue*>& values,
                 const std::vector<double>& factors) {
   std::vector<double> x0;
   for (const auto* v : values) x0.push_back(v->get(start));
@@ -147,7 +147,7 @@ void add_calibrate_command(CLI::App& app) {
     }();
     struct Source {
       std::string model_text, model_name;
-      sim::MortiModel start;
+      sim::PlanarLegModel start;
       std::vector<cal::CalibrationTrace> traces;
       std::vector<std::string> names;
     } source;
@@ -190,7 +190,7 @@ void add_calibrate_command(CLI::App& app) {
       source.traces = std::move(st.traces);
       source.names = std::move(st.sources);
     }
-    const sim::MortiModel& start = source.start;
+    const sim::PlanarLegModel& start = source.start;
     cal::CalibrationOptions options;
     options.values = values;
     options.scales.contact_mismatch = o->contact_weight;

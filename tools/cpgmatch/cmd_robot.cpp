@@ -27,7 +27,7 @@ struct StandResult {
 };
 
 // Holds every joint at its standing target for `seconds` and reports whether the trunk stayed up.
-StandResult stand(const sim::MortiModel& model, double seconds) {
+StandResult stand(const sim::PlanarLegModel& model, double seconds) {
   sim::OdePlant plant(model, sim::TerrainSpec{}, 0);
   const PerLeg<JointCommand> hold(model.leg_count());
   plant.command(hold);
@@ -90,7 +90,7 @@ int check(const std::string& which, bool json) {
 
   // Simulation: what this version's plant builds of it, a 3-s stand and each preset.
   try {
-    const sim::MortiModel model = sim::planar_leg_model(robot);
+    const sim::PlanarLegModel model = sim::planar_leg_model(robot);
     const StandResult s = stand(model, 3.0);
     out["stand"] = {{"start_height_m", s.start_height_m}, {"end_height_m", s.end_height_m},
                     {"end_pitch_rad", s.end_pitch_rad}, {"stood", s.stood}};

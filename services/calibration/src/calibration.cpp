@@ -75,7 +75,7 @@ CalibrationTrace prepare_trace(MeasuredTrace measured, const CpgParameters& para
 }
 
 struct Calibration::Impl {
-  sim::MortiModel start;
+  sim::PlanarLegModel start;
   std::vector<CalibrationTrace> traces;
   CalibrationOptions options;
   std::vector<double> scales;
@@ -90,7 +90,7 @@ struct Calibration::Impl {
     return o;
   }
 
-  Impl(sim::MortiModel start_model, std::vector<CalibrationTrace> t, CalibrationOptions o)
+  Impl(sim::PlanarLegModel start_model, std::vector<CalibrationTrace> t, CalibrationOptions o)
       : start(start_model),
         traces(std::move(t)),
         options(std::move(o)),
@@ -193,7 +193,7 @@ struct Calibration::Impl {
   }
 };
 
-Calibration::Calibration(sim::MortiModel start, std::vector<CalibrationTrace> traces, CalibrationOptions options)
+Calibration::Calibration(sim::PlanarLegModel start, std::vector<CalibrationTrace> traces, CalibrationOptions options)
     : impl_(std::make_unique<Impl>(start, std::move(traces), std::move(options))) {}
 
 Calibration::~Calibration() = default;

@@ -9,7 +9,7 @@
 namespace cpgmatch::calibration {
 
 const std::vector<ModelValue>& calibratable_values() {
-  using M = sim::MortiModel;
+  using M = sim::PlanarLegModel;
   // Bounds: a factor of about 3 around the model's assumed value, within what the part could physically
   // be (configs/model/morti.yaml gives the nominal values and their sources).
   static const std::vector<ModelValue> values = {

@@ -4,12 +4,12 @@
 
 namespace cpgmatch::calibration {
 
-ReplayCache::ReplayCache(sim::MortiModel start, std::vector<const ModelValue*> values, std::vector<double> scales,
+ReplayCache::ReplayCache(sim::PlanarLegModel start, std::vector<const ModelValue*> values, std::vector<double> scales,
                          const std::vector<CalibrationTrace>& traces, std::size_t capacity)
     : start_(start), values_(std::move(values)), scales_(std::move(scales)), traces_(traces), capacity_(capacity) {}
 
-sim::MortiModel ReplayCache::model_at(const double* x) const {
-  sim::MortiModel model = start_;
+sim::PlanarLegModel ReplayCache::model_at(const double* x) const {
+  sim::PlanarLegModel model = start_;
   for (std::size_t i = 0; i < values_.size(); ++i) {
     values_[i]->set(model, std::clamp(x[i] * scales_[i], values_[i]->lower, values_[i]->upper));
   }
@@ -25,7 +25,7 @@ const std::vector<MeasuredTrace>* ReplayCache::replays_at(const double* x) {
     }
   }
   Entry entry{std::vector<double>(x, x + n), std::vector<MeasuredTrace>{}};
-  const sim::MortiModel model = model_at(x);
+  const sim::PlanarLegModel model = model_at(x);
   for (const CalibrationTrace& trace : traces_) {
     ++replays_run_;
     auto replayed = replay(model, trace.commands, trace.setup);

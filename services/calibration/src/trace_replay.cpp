@@ -62,7 +62,7 @@ CommandSequence commands_of(const MeasuredTrace& trace, const CpgParameters& par
   return commands;
 }
 
-std::optional<MeasuredTrace> replay(const sim::MortiModel& model, const CommandSequence& commands,
+std::optional<MeasuredTrace> replay(const sim::PlanarLegModel& model, const CommandSequence& commands,
                                     const ReplaySetup& setup) {
   sim::OdePlant plant(model, setup.terrain, setup.seed);
   const std::size_t legs = model.leg_count();

@@ -164,7 +164,7 @@ int run(int argc, char** argv) {
   Setup setup;
   setup.robot = load_robot(robot_name);
   setup.job.model = sim::planar_leg_model(setup.robot);
-  if (setup.job.model.knee_drive != sim::MortiModel::KneeDrive::kSeriesElastic) {
+  if (setup.job.model.knee_drive != sim::PlanarLegModel::KneeDrive::kSeriesElastic) {
     throw InputError("the MuJoCo bench mirrors the series-elastic knee only");
   }
   setup.job.settings = load_rollout_settings(sim::default_rollout_settings_path());

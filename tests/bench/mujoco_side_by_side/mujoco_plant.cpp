@@ -66,7 +66,7 @@ struct MujocoPlant::Impl {
     double hip_torque = 0.0, knee_torque = 0.0, normal_force = 0.0, sensed_force = 0.0;
   };
 
-  sim::MortiModel model;
+  sim::PlanarLegModel model;
   std::string mjcf;
   mjModel* m = nullptr;
   mjData* d = nullptr;
@@ -82,7 +82,7 @@ struct MujocoPlant::Impl {
     return id;
   }
 
-  Impl(const RobotDescription& robot, const sim::MortiModel& mm, const MujocoSolver& solver) : model(mm) {
+  Impl(const RobotDescription& robot, const sim::PlanarLegModel& mm, const MujocoSolver& solver) : model(mm) {
     // Where the ODE plant starts its trunk: the standing pose with the toes 1 mm above the ground.
     const double a0 = model.femur_mount_angle_rad, b0 = model.knee_stand_flexion_rad;
     const double leg_drop = model.femur.length_m * std::cos(a0) + model.shank.length_m * std::cos(a0 - b0) +
@@ -274,7 +274,7 @@ struct MujocoPlant::Impl {
   }
 };
 
-MujocoPlant::MujocoPlant(const RobotDescription& robot, const sim::MortiModel& model, const MujocoSolver& solver)
+MujocoPlant::MujocoPlant(const RobotDescription& robot, const sim::PlanarLegModel& model, const MujocoSolver& solver)
     : impl_(std::make_unique<Impl>(robot, model, solver)) {}
 MujocoPlant::~MujocoPlant() = default;
 

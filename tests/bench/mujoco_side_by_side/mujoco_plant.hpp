@@ -23,7 +23,7 @@ class MujocoPlant : public Plant {
   // `robot`: the description whose URDF MuJoCo loads; `model`: the same robot as the ODE plant sees it
   // (springs, motors, contact; sim::planar_leg_model(robot)). Throws std::runtime_error with MuJoCo's
   // message when the URDF or the generated MJCF does not load.
-  MujocoPlant(const RobotDescription& robot, const sim::MortiModel& model, const MujocoSolver& solver = {});
+  MujocoPlant(const RobotDescription& robot, const sim::PlanarLegModel& model, const MujocoSolver& solver = {});
   ~MujocoPlant() override;
 
   void command(const PerLeg<JointCommand>& commands) override;

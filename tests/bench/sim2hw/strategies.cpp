@@ -99,8 +99,8 @@ std::string file_text(const std::string& path) {
 
 // The values calibration can fit that the scenario changes: a lab would fit what it suspects; the
 // benchmark fits what it knows differs (the values' true sizes stay unknown to the fit).
-std::vector<const calibration::ModelValue*> values_that_differ(const sim::MortiModel& simulation,
-                                                                const sim::MortiModel& robot) {
+std::vector<const calibration::ModelValue*> values_that_differ(const sim::PlanarLegModel& simulation,
+                                                                const sim::PlanarLegModel& robot) {
   std::vector<const calibration::ModelValue*> values;
   for (const auto& v : calibration::calibratable_values()) {
     if (v.get(simulation) != v.get(robot)) values.push_back(&v);

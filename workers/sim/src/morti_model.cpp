@@ -50,10 +50,10 @@ MotorModel motor(const YamlReader& r, const std::string& key, MotorModel fallbac
 
 }  // namespace
 
-MortiModel load_morti_model(const std::string& path) { return parse_morti_model(YamlReader::from_file(path)); }
+PlanarLegModel load_morti_model(const std::string& path) { return parse_morti_model(YamlReader::from_file(path)); }
 
-MortiModel parse_morti_model(const YamlReader& r) {
-  MortiModel m;
+PlanarLegModel parse_morti_model(const YamlReader& r) {
+  PlanarLegModel m;
   r.reject_unknown_keys({"trunk", "femur", "shank", "foot", "leg", "knee_spring", "biarticular_spring",
                          "hip_motor", "knee_motor", "contact", "foot_sensor", "simulation"});
   if (r.has("trunk")) {

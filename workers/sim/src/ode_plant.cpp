@@ -161,10 +161,10 @@ struct OdePlant::Impl {
     double hip_torque = 0.0;
     double knee_torque = 0.0;
     double normal_force = 0.0;
-    double sensed_force = 0.0;  // what the FootTile reports (MortiModel::foot_sensor)
+    double sensed_force = 0.0;  // what the FootTile reports (PlanarLegModel::foot_sensor)
   };
 
-  MortiModel model;
+  PlanarLegModel model;
   TerrainSpec terrain;
   dWorldID world = nullptr;
   dSpaceID terrain_space = nullptr;
@@ -191,7 +191,7 @@ struct OdePlant::Impl {
     return terrain.treadmill_speed_mps * ramp;
   }
 
-  Impl(const MortiModel& m, const TerrainSpec& t, std::uint64_t seed) : model(m), terrain(t) {
+  Impl(const PlanarLegModel& m, const TerrainSpec& t, std::uint64_t seed) : model(m), terrain(t) {
     init_ode_once();
     dt = 1.0 / model.physics_rate_hz;
     world = dWorldCreate();
@@ -316,7 +316,7 @@ struct OdePlant::Impl {
       add_reflected_inertia(leg.femur, model.hip_motor.reflected_inertia_kg_m2);
       leg.shank = make_segment(knee, a0 - b0, model.shank);
       // A knee motor that drives the knee directly turns with it: its rotor's inertia loads the shank.
-      if (model.knee_drive == MortiModel::KneeDrive::kPositionPd) add_reflected_inertia(leg.shank, model.knee_motor.reflected_inertia_kg_m2);
+      if (model.knee_drive == PlanarLegModel::KneeDrive::kPositionPd) add_reflected_inertia(leg.shank, model.knee_motor.reflected_inertia_kg_m2);
       leg.foot = model.has_ankle ? make_segment(ankle, a0, model.foot) : nullptr;
       // Joints in the order hip, knee, ankle, then the stop motors: ODE solves its rows in creation order,
       // and this is the order every earlier release used (the same bits for Morti).
@@ -371,7 +371,7 @@ struct OdePlant::Impl {
       // A spring across the knee, parallel to its motor, at rest standing (none when its stiffness is 0).
       const double parallel = -model.knee_parallel_spring.stiffness_nm_per_rad * (beta - model.knee_stand_flexion_rad) -
                               model.knee_parallel_spring.damping_nm_s_per_rad * beta_rate;
-      if (model.knee_drive == MortiModel::KneeDrive::kPositionPd) {
+      if (model.knee_drive == PlanarLegModel::KneeDrive::kPositionPd) {
         // Knee driven directly: a PD on the flexion within the motor's torque-speed line; the motor turns
         // with the knee.
         const double target = model.knee_stand_flexion_rad + cmd.knee_flexion_rad;
@@ -538,7 +538,7 @@ struct OdePlant::Impl {
   }
 };
 
-OdePlant::OdePlant(const MortiModel& model, const TerrainSpec& terrain, std::uint64_t seed)
+OdePlant::OdePlant(const PlanarLegModel& model, const TerrainSpec& terrain, std::uint64_t seed)
     : impl_(std::make_unique<Impl>(model, terrain, seed)) {}
 
 OdePlant::~OdePlant() = default;
@@ -556,7 +556,7 @@ void OdePlant::advance(double dt_s) {
 double OdePlant::time_step_s() const { return impl_->dt; }
 
 std::optional<EnergyModel> OdePlant::energy_model() const {
-  const MortiModel& m = impl_->model;
+  const PlanarLegModel& m = impl_->model;
   return EnergyModel{line_of(m.hip_motor), line_of(m.knee_motor), m.total_mass_kg(), m.gravity_m_s2};
 }
 

@@ -74,7 +74,7 @@ void add_motor(std::vector<Entry>& out, const char* section, const MotorModel& m
 
 }  // namespace
 
-std::optional<RangeProblem> check_physical_ranges(const MortiModel& m) {
+std::optional<RangeProblem> check_physical_ranges(const PlanarLegModel& m) {
   // In the model file's order, so the first problem is the first one a reader meets.
   std::vector<Entry> e = {
       {"trunk", "mass_kg", m.trunk_mass_kg, Quantity::kMass},
@@ -119,7 +119,7 @@ std::optional<RangeProblem> check_physical_ranges(const MortiModel& m) {
   const auto absent = [&](const Entry& x) {
     const std::string section = x.section, key = x.key;
     if (!m.has_ankle && (section == "foot" || section == "biarticular_spring" || key == "ankle_range_rad")) return true;
-    return m.knee_drive == MortiModel::KneeDrive::kPositionPd && (section == "knee_spring" || key == "bandwidth_per_s");
+    return m.knee_drive == PlanarLegModel::KneeDrive::kPositionPd && (section == "knee_spring" || key == "bandwidth_per_s");
   };
   for (const Entry& x : e) {
     if (absent(x)) continue;
@@ -131,7 +131,7 @@ std::optional<RangeProblem> check_physical_ranges(const MortiModel& m) {
   }
   // The knee's position loop is stepped explicitly once per physics step: speed = bandwidth * error moves
   // past its target (and rings) when bandwidth * dt > 1.
-  if (m.knee_drive == MortiModel::KneeDrive::kSeriesElastic && m.knee_motor_bandwidth_per_s > m.physics_rate_hz) {
+  if (m.knee_drive == PlanarLegModel::KneeDrive::kSeriesElastic && m.knee_motor_bandwidth_per_s > m.physics_rate_hz) {
     return RangeProblem{"knee_motor", "bandwidth_per_s",
                         fmt::format("{:g}/s is above simulation.physics_rate_hz ({:g} Hz): the explicit position "
                                     "loop would overshoot every step", m.knee_motor_bandwidth_per_s, m.physics_rate_hz)};

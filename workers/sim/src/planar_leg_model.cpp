@@ -126,14 +126,14 @@ void require_alike(const RobotDescription& robot, const LegValues& a, const LegV
 
 }  // namespace
 
-MortiModel planar_leg_model(const RobotDescription& robot) {
+PlanarLegModel planar_leg_model(const RobotDescription& robot) {
   if (!robot.planar) refuse(robot, "the plant builds planar robots only");
   const LegValues first = leg_values(robot, robot.legs.front());
   for (std::size_t i = 1; i < robot.legs.size(); ++i) {
     require_alike(robot, first, leg_values(robot, robot.legs[i]), robot.legs[i].name);
   }
 
-  MortiModel m;
+  PlanarLegModel m;
   const LinkDescription& trunk = robot.link(robot.root_link);
   m.trunk_mass_kg = trunk.mass_kg;
   const auto box = std::find_if(trunk.collisions.begin(), trunk.collisions.end(),
@@ -181,13 +181,13 @@ MortiModel planar_leg_model(const RobotDescription& robot) {
   const MotorDescription& km = robot.motors.at(knee.motor);
   m.knee_joint_friction_nm = knee.joint_friction_nm;
   if (knee.kind == DriveDescription::Kind::kSeriesElastic) {
-    m.knee_drive = MortiModel::KneeDrive::kSeriesElastic;
+    m.knee_drive = PlanarLegModel::KneeDrive::kSeriesElastic;
     m.knee_motor = {km.stall_torque_nm, km.no_load_speed_rad_s, 0.0, 0.0, 0.0, 0.0, 0.0};
     m.knee_motor_bandwidth_per_s = knee.bandwidth_per_s;
     m.knee_spring = {knee.series_spring.stiffness_nm_per_rad, knee.series_spring.damping_nm_s_per_rad};
   } else {
     // Driven directly: the gearbox's friction and reflected inertia load the knee as the hip's load the hip.
-    m.knee_drive = MortiModel::KneeDrive::kPositionPd;
+    m.knee_drive = PlanarLegModel::KneeDrive::kPositionPd;
     m.knee_motor = {km.stall_torque_nm, km.no_load_speed_rad_s, knee.kp_nm_per_rad, knee.kd_nm_s_per_rad,
                     km.coulomb_friction_nm, km.viscous_friction_nm_s_per_rad, km.reflected_inertia_kg_m2};
   }

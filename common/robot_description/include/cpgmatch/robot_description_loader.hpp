@@ -43,7 +43,7 @@ UrdfModel parse_urdf(const std::string& urdf_text, const std::string& urdf_sourc
 
 namespace cpgmatch {
 
-// Sections a robot.yaml and a model file (workers/sim's MortiModel) share, read one way for both. A value
+// Sections a robot.yaml and a model file (workers/sim's PlanarLegModel) share, read one way for both. A value
 // is a bare number or {value: X, source: "..."}; `fallback` holds what an absent key keeps.
 double physical_value(const YamlReader& r, const std::string& key, double fallback);
 double positive_value(const YamlReader& r, const std::string& key, double fallback);

@@ -67,7 +67,7 @@ struct FittedValue {
 
 struct CalibrationResult {
   std::vector<FittedValue> values;
-  sim::MortiModel model;       // the start model with the estimates
+  sim::PlanarLegModel model;       // the start model with the estimates
   double cost_before = 0.0;    // Ceres' cost, 1/2 sum of the robustified squared residuals
   double cost_after = 0.0;
   ChannelRms rms_before;
@@ -83,7 +83,7 @@ struct CalibrationResult {
 
 class Calibration {
  public:
-  Calibration(sim::MortiModel start, std::vector<CalibrationTrace> traces, CalibrationOptions options);
+  Calibration(sim::PlanarLegModel start, std::vector<CalibrationTrace> traces, CalibrationOptions options);
   ~Calibration();
   Calibration(const Calibration&) = delete;
   Calibration& operator=(const Calibration&) = delete;

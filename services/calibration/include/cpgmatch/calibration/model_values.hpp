@@ -16,10 +16,10 @@ struct ModelValue {
   double lower = 0.0;  // physical bounds, in the value's unit
   double upper = 0.0;
   std::string bounds_reason;
-  double& (*ref)(sim::MortiModel&);  // where the value lives in the model
+  double& (*ref)(sim::PlanarLegModel&);  // where the value lives in the model
 
-  double get(sim::MortiModel model) const { return ref(model); }
-  void set(sim::MortiModel& model, double value) const { ref(model) = value; }
+  double get(sim::PlanarLegModel model) const { return ref(model); }
+  void set(sim::PlanarLegModel& model, double value) const { ref(model) = value; }
 };
 
 // Every value calibration knows, in a fixed order.

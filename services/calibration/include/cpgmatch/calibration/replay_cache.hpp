@@ -16,11 +16,11 @@ namespace cpgmatch::calibration {
 class ReplayCache {
  public:
   // `scales[i]` turns the solver's i-th unknown into the value (unknown x value / scale ~ 1).
-  ReplayCache(sim::MortiModel start, std::vector<const ModelValue*> values, std::vector<double> scales,
+  ReplayCache(sim::PlanarLegModel start, std::vector<const ModelValue*> values, std::vector<double> scales,
               const std::vector<CalibrationTrace>& traces, std::size_t capacity);
 
   // The model with the solver's unknowns `x` set (each value clamped into its physical bounds).
-  sim::MortiModel model_at(const double* x) const;
+  sim::PlanarLegModel model_at(const double* x) const;
   // The replay of every trace at `x`, in the traces' order; nullptr when one diverged.
   const std::vector<MeasuredTrace>* replays_at(const double* x);
   long replays_run() const { return replays_run_; }
@@ -30,7 +30,7 @@ class ReplayCache {
     std::vector<double> x;
     std::optional<std::vector<MeasuredTrace>> replays;
   };
-  sim::MortiModel start_;
+  sim::PlanarLegModel start_;
   std::vector<const ModelValue*> values_;
   std::vector<double> scales_;
   const std::vector<CalibrationTrace>& traces_;

@@ -12,7 +12,7 @@
 namespace cpgmatch::calibration {
 
 struct StudyTraces {
-  sim::MortiModel model;   // the study spec's model: where the fit starts
+  sim::PlanarLegModel model;   // the study spec's model: where the fit starts
   std::string model_yaml;  // the same model as YAML, one line per value (what calibrated_model_text rewrites)
   std::string model_source;  // "STORE study ID (spec SHA)", for messages and the calibrated file's header
   std::vector<CalibrationTrace> traces;

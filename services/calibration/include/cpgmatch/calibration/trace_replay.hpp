@@ -36,7 +36,7 @@ struct ReplaySetup {
 
 // Runs the commands on a fresh simulated Morti of `model` and returns what it measured at each tick; nothing
 // when the simulation diverged (a non-finite state).
-std::optional<MeasuredTrace> replay(const sim::MortiModel& model, const CommandSequence& commands,
+std::optional<MeasuredTrace> replay(const sim::PlanarLegModel& model, const CommandSequence& commands,
                                     const ReplaySetup& setup);
 
 }  // namespace cpgmatch::calibration

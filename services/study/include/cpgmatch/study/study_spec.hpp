@@ -23,7 +23,7 @@
 // whose science computes different costs have different objective versions, so their specs never hash
 // alike and never mix in one study.
 //
-// The typed loaders (study config, sim::MortiModel, RolloutSettings) validate every section, so a spec
+// The typed loaders (study config, sim::PlanarLegModel, RolloutSettings) validate every section, so a spec
 // that resolves is a spec a worker can run; the tree is what travels and what is stored.
 #pragma once
 
@@ -85,7 +85,7 @@ class StudySpec {
   std::uint32_t objective_version() const { return objective_version_; }
 
   const StudyConfig& config() const { return config_; }
-  const sim::MortiModel& model() const { return model_; }
+  const sim::PlanarLegModel& model() const { return model_; }
   const RolloutSettings& rollout_settings() const { return settings_; }  // entrain/eval: the study's
   const CpgParameters& base_parameters() const { return base_parameters_; }
 
@@ -102,7 +102,7 @@ class StudySpec {
   std::uint64_t key_ = 0;
   std::uint32_t objective_version_ = 0;
   StudyConfig config_;
-  sim::MortiModel model_;
+  sim::PlanarLegModel model_;
   RolloutSettings settings_;
   CpgParameters base_parameters_;
 };

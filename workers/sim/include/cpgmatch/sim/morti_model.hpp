@@ -1,7 +1,8 @@
-// Mechanical model of Morti for the ODE plant: every mass, length, stiffness and motor limit.
+// The ODE plant's mechanical model of a planar legged robot: every mass, length, stiffness and motor limit.
 //
-// Values come from configs/model/morti.yaml, which documents the source of each number. The geometry is
-// the biarticular leg: hip -> femur -> knee -> shank -> ankle -> foot -> toe, with the foot held parallel
+// It is built from a robot description (planar_leg_model.hpp) or read from a model file such as
+// configs/model/morti.yaml (Morti's, which documents the source of each number). Its defaults are Morti's,
+// whose geometry is the biarticular leg: hip -> femur -> knee -> shank -> ankle -> foot -> toe, with the foot held parallel
 // to the femur by the biarticular spring (the spring-loaded parallel mechanism), and the knee driven by
 // its motor through the monoarticular knee spring (series elastic).
 #pragma once
@@ -46,7 +47,7 @@ using ContactModel = ContactDescription;  // robot_description.hpp: friction, st
 // barometer's oversampling filter, a first-order lag), so the rollout's threshold is crossed later.
 using FootSensorModel = FootSensorDescription;  // robot_description.hpp: sensitivity, lag
 
-struct MortiModel {
+struct PlanarLegModel {
   double trunk_mass_kg = 3.0;
   double trunk_length_m = 0.48;   // box length; hips sit at +-hip_spacing/2
   double hip_spacing_m = 0.40;
@@ -94,8 +95,8 @@ struct MortiModel {
 };
 
 // Loads a model YAML; throws InputError naming the file, line and field on bad input.
-MortiModel load_morti_model(const std::string& path);
+PlanarLegModel load_morti_model(const std::string& path);
 // The same from a parsed tree (a study spec's model section); errors name the reader's source.
-MortiModel parse_morti_model(const YamlReader& reader);
+PlanarLegModel parse_morti_model(const YamlReader& reader);
 
 }  // namespace cpgmatch::sim

@@ -23,7 +23,7 @@ namespace cpgmatch::sim {
 
 class OdePlant final : public Plant {
  public:
-  OdePlant(const MortiModel& model, const TerrainSpec& terrain, std::uint64_t seed);
+  OdePlant(const PlanarLegModel& model, const TerrainSpec& terrain, std::uint64_t seed);
   ~OdePlant() override;
   OdePlant(const OdePlant&) = delete;
   OdePlant& operator=(const OdePlant&) = delete;

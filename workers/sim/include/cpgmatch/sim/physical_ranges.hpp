@@ -53,6 +53,6 @@ struct RangeProblem {
 };
 
 // The first value of `m` outside its range, or nothing when every value is in range.
-std::optional<RangeProblem> check_physical_ranges(const MortiModel& m);
+std::optional<RangeProblem> check_physical_ranges(const PlanarLegModel& m);
 
 }  // namespace cpgmatch::sim

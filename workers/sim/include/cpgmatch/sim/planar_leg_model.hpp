@@ -1,7 +1,7 @@
 // The simulation's planar leg model, built from a robot description (URDF + robot.yaml).
 //
 // OdePlant simulates a trunk on a planar rail with legs of two or three segments (hip -> femur -> knee ->
-// shank [-> ankle -> foot]) whose values it takes from a MortiModel. This reads those values from a robot
+// shank [-> ankle -> foot]) whose values it takes from a PlanarLegModel. This reads those values from a robot
 // description instead of a hand-written model file: segment lengths from the joint origins, masses from the
 // links, the standing pose from the joints' origin rotations, stops from the joint limits, the toe from the
 // foot's collision sphere, the trunk from its collision box; springs, motors, contact and the foot sensor
@@ -19,7 +19,7 @@
 
 namespace cpgmatch::sim {
 
-MortiModel planar_leg_model(const RobotDescription& robot);
+PlanarLegModel planar_leg_model(const RobotDescription& robot);
 
 // The trunk's height above flat ground when the robot stands in its URDF pose with the lowest foot sphere
 // just touching the ground (metres): the URDF's forward kinematics, in the sagittal plane.

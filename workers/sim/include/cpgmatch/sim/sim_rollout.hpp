@@ -13,7 +13,7 @@ namespace cpgmatch::sim {
 struct SimRolloutJob {
   CpgParameters params;
   RolloutSettings settings;
-  MortiModel model;
+  PlanarLegModel model;
   TerrainSpec terrain;
   std::uint64_t seed = 0;
 };
