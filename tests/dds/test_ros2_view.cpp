@@ -1,4 +1,4 @@
-// The ROS 2 view (ros2_view.hpp): its messages, what a late ROS 2 subscriber gets on a real DDS domain (80),
+// The ROS 2 view (ros2_view.hpp): its messages, what a late ROS 2 subscriber gets on a real DDS domain,
 // and the ROS 2 environment variables as defaults of --domain, --keystore and --enclave.
 #include <gtest/gtest.h>
 
@@ -36,6 +36,13 @@ namespace {
 
 using namespace std::chrono_literals;
 namespace fdds = eprosima::fastdds::dds;
+
+// Each test on a domain of its own: ctest -j runs them side by side, and on one domain a reader hears the
+// other tests' samples.
+constexpr int kLateSubscriberDomain = 80;
+constexpr int kTypeLookupDomain = 48;
+constexpr int kSecureViewDomain = 49;
+
 namespace ros = cpgmatch_msgs::msg::dds_;
 
 domain::StudyState state(int id, domain::StudyStatus status, int completed) {
@@ -137,8 +144,8 @@ struct LateRosSubscriber {
     subscriber->delete_datareader(reader);
     participant->delete_topic(topic);
   }
-  // Study id -> the last state read of it, for the studies below 10 (the other test on this domain publishes
-  // study 77), after waiting up to `timeout` for `studies` of them.
+  // Study id -> the last state read of it, for the studies below 10, after waiting up to `timeout` for
+  // `studies` of them.
   std::map<std::uint32_t, ros::StudyState_> read(std::size_t studies, std::chrono::milliseconds timeout) {
     std::map<std::uint32_t, ros::StudyState_> got;
     const auto deadline = std::chrono::steady_clock::now() + timeout;
@@ -159,7 +166,7 @@ struct LateRosSubscriber {
 };
 
 TEST(Ros2View, ALateSubscriberGetsTheLatestStateOfEveryOpenStudy) {
-  dds::Participant optimizer(dds::ParticipantConfig::basic(80, "test-ros2-optimizer", true));
+  dds::Participant optimizer(dds::ParticipantConfig::basic(kLateSubscriberDomain, "test-ros2-optimizer", true));
   dds::Ros2View view(optimizer, false);
   // Study 1 changes after study 2 did: with one unkeyed writer a late subscriber would see study 1 only.
   ASSERT_TRUE(view.publish_state(state(1, domain::StudyStatus::kRunning, 3)));
@@ -169,7 +176,7 @@ TEST(Ros2View, ALateSubscriberGetsTheLatestStateOfEveryOpenStudy) {
   // Finished before the service started (first seen closed): not part of the live view.
   ASSERT_TRUE(view.publish_state(state(9, domain::StudyStatus::kDone, 40)));
 
-  dds::Participant ros2_node(dds::ParticipantConfig::basic(80, "test-ros2-node", true));
+  dds::Participant ros2_node(dds::ParticipantConfig::basic(kLateSubscriberDomain, "test-ros2-node", true));
   {
     LateRosSubscriber late(ros2_node);
     const auto got = late.read(2, 10s);
@@ -226,7 +233,7 @@ int learn_state_type_as_a_recorder() {
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.wire_protocol().builtin.typelookup_config.use_client = true;
   auto* factory = fdds::DomainParticipantFactory::get_instance();
-  fdds::DomainParticipant* participant = factory->create_participant(80, qos, &recorder, fdds::StatusMask::none());
+  fdds::DomainParticipant* participant = factory->create_participant(kTypeLookupDomain, qos, &recorder, fdds::StatusMask::none());
   if (participant == nullptr) return 1;
   const std::string state_type = "cpgmatch_msgs::msg::dds_::StudyState_";
   int result = 0;
@@ -265,7 +272,7 @@ TEST(Ros2View, WithTypeInformationARecorderLearnsTheTypesOfTheTopics) {
   const pid_t recorder = fork();
   ASSERT_GE(recorder, 0);
   if (recorder == 0) _exit(learn_state_type_as_a_recorder());
-  dds::ParticipantConfig config = dds::ParticipantConfig::basic(80, "test-ros2-typed-optimizer", false);
+  dds::ParticipantConfig config = dds::ParticipantConfig::basic(kTypeLookupDomain, "test-ros2-typed-optimizer", false);
   config.serve_type_lookup = true;
   dds::Participant optimizer(config);
   dds::Ros2View view(optimizer, true);
@@ -289,14 +296,14 @@ TEST(Ros2View, UnderDdsSecurityTheViewerEnclaveReadsWhatTheOptimizerPublishes) {
   ASSERT_GE(viewer, 0);
   if (viewer == 0) {
     dds::select_security(dds::SecuritySelection{keystore, "viewer"});
-    dds::Participant node(dds::ParticipantConfig::basic(80, "test-ros2-viewer", true));
+    dds::Participant node(dds::ParticipantConfig::basic(kSecureViewDomain, "test-ros2-viewer", true));
     LateRosSubscriber late(node);
     const auto got = late.read(1, 20s);
     _exit(got.count(5) == 1 && got.at(5).completed_() == 7 ? 0 : 1);
   }
   dds::select_security(dds::SecuritySelection{keystore, "optimizer"});
   {
-    dds::Participant optimizer(dds::ParticipantConfig::basic(80, "test-ros2-secure-optimizer", true));
+    dds::Participant optimizer(dds::ParticipantConfig::basic(kSecureViewDomain, "test-ros2-secure-optimizer", true));
     dds::Ros2View view(optimizer, false);  // throws if the optimizer's permissions lacked the rt/ topics
     ASSERT_TRUE(view.publish_state(state(5, domain::StudyStatus::kRunning, 7)));
     int status = 0;

@@ -94,9 +94,11 @@ TEST(Transport, WorkerFilterReadsTheSerializedWorkerId) {
 }
 
 TEST(Transport, WorkerIdFilterSendsEachWorkerItsOwnCandidatesAndDisposesOnly) {
-  Participant optimizer(ParticipantConfig::basic(35, "test-optimizer", true));
-  Participant worker_a(ParticipantConfig::basic(35, "test-worker-a", true));
-  Participant worker_b(ParticipantConfig::basic(35, "test-worker-b", true));
+  // Domain 44, not 35: ctest -j runs this beside ContentFilterDeliversOnlyTheWorkersOwnCandidates, and on one
+  // domain each test's readers heard the other's six candidates (CI, stop 37).
+  Participant optimizer(ParticipantConfig::basic(44, "test-optimizer", true));
+  Participant worker_a(ParticipantConfig::basic(44, "test-worker-a", true));
+  Participant worker_b(ParticipantConfig::basic(44, "test-worker-b", true));
   Inbox<msg::Candidate> got_a, got_b, gone_a, gone_b;
   using To = Reader<msg::Candidate>::AddressedToWorker;
   Reader<msg::Candidate> reader_a(
