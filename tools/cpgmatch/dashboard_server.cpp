@@ -260,6 +260,7 @@ struct DashboardServer::Impl {
                                connections.size()));
         continue;
       }
+      if (per_address[address] >= limits.max_connections_per_address) catch_up(address);
       if (per_address[address] >= limits.max_connections_per_address) {
         refuse(fd, fmt::format("{} connections from {} are open, the limit for one address", per_address[address], address));
         continue;
@@ -269,6 +270,14 @@ struct DashboardServer::Impl {
       c.fd = fd;
       c.address = address;
       c.opened = c.last_progress = Clock::now();
+      // Served at once, before the next accept: a request that has already arrived is answered (or refused)
+      // now, so that connections which are only waiting to be told 503 do not count against their address
+      // while later connections are accepted (500 tabs from one address left none for its next request).
+      if (advance(c, POLLIN, c.opened)) {
+        release_address(c);
+        ::close(c.fd);
+        continue;
+      }
       connections.push_back(std::move(c));
     }
   }
@@ -423,6 +432,58 @@ struct DashboardServer::Impl {
     connections.pop_back();
   }
 
+  // Before an address is refused for its number of connections: serves those of its connections whose
+  // request has arrived since they were accepted, so that the ones only waiting to be answered (a 503 for an
+  // event stream past its limit, a page) no longer count. Closing is left to the next round of run(), whose
+  // poll set still indexes the connections as they are.
+  void catch_up(const std::string& address) {
+    const auto now = Clock::now();
+    for (Connection& c : connections) {
+      if (c.address != address || !c.counted_address) continue;
+      if (advance(c, POLLIN, now)) {
+        release_address(c);
+        c.phase = Connection::Phase::kDraining;
+        c.drain_until = now;  // dropped in the next round
+      }
+    }
+  }
+
+  // One step of a connection: reads what arrived, answers, writes what the socket takes, drains. True when it
+  // is to be closed.
+  bool advance(Connection& c, short revents, Clock::time_point now) {
+    bool drop = (revents & (POLLERR | POLLNVAL)) != 0;
+    if (!drop && c.phase == Connection::Phase::kReading) {
+      if (revents & (POLLIN | POLLHUP)) read_request(c);
+      if (c.phase == Connection::Phase::kReading && now - c.opened > limits.head_deadline) {
+        finish_with(c, plain(408, fmt::format("408 the request head did not arrive within {} ms",
+                                               limits.head_deadline.count())));
+      }
+    }
+    if (!drop && c.phase == Connection::Phase::kStreaming && (revents & (POLLIN | POLLHUP))) {
+      char sink[512];
+      const ssize_t n = ::recv(c.fd, sink, sizeof(sink), 0);
+      drop = n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR);
+    }
+    if (!drop && c.pending()) drop = !write_some(c);
+    if (!drop && c.pending() && now - c.last_progress > limits.stuck_write_deadline) drop = true;
+    if (!drop && c.phase == Connection::Phase::kWriting && !c.pending()) {
+      // Answered: no more to send. Read what the client still sends (a request body never read) until it
+      // closes, briefly, so that closing does not reset the connection before it read the answer.
+      ::shutdown(c.fd, SHUT_WR);
+      c.phase = Connection::Phase::kDraining;
+      c.drain_until = now + std::chrono::milliseconds(1000);
+      release_address(c);  // answered: its address's next request must not wait for this one to close
+    }
+    if (!drop && c.phase == Connection::Phase::kDraining) {
+      char sink[4096];
+      ssize_t n = 0;
+      while ((n = ::recv(c.fd, sink, sizeof(sink), 0)) > 0) {
+      }
+      drop = n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) || now >= c.drain_until;
+    }
+    return drop;
+  }
+
   void run() {
     std::vector<pollfd> fds;
     while (!stopping.load()) {
@@ -445,39 +506,7 @@ struct DashboardServer::Impl {
       if (fds[0].revents & POLLIN) accept_all();
       const auto now = Clock::now();
       for (std::size_t i = known; i-- > 0;) {
-        Connection& c = connections[i];
-        const short revents = fds[i + 1].revents;
-        bool drop = (revents & (POLLERR | POLLNVAL)) != 0;
-        if (!drop && c.phase == Connection::Phase::kReading) {
-          if (revents & (POLLIN | POLLHUP)) read_request(c);
-          if (c.phase == Connection::Phase::kReading && now - c.opened > limits.head_deadline) {
-            finish_with(c, plain(408, fmt::format("408 the request head did not arrive within {} ms",
-                                                   limits.head_deadline.count())));
-          }
-        }
-        if (!drop && c.phase == Connection::Phase::kStreaming && (revents & (POLLIN | POLLHUP))) {
-          char sink[512];
-          const ssize_t n = ::recv(c.fd, sink, sizeof(sink), 0);
-          drop = n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR);
-        }
-        if (!drop && c.pending()) drop = !write_some(c);
-        if (!drop && c.pending() && now - c.last_progress > limits.stuck_write_deadline) drop = true;
-        if (!drop && c.phase == Connection::Phase::kWriting && !c.pending()) {
-          // Answered: no more to send. Read what the client still sends (a request body never read) until it
-          // closes, briefly, so that closing does not reset the connection before it read the answer.
-          ::shutdown(c.fd, SHUT_WR);
-          c.phase = Connection::Phase::kDraining;
-          c.drain_until = now + std::chrono::milliseconds(1000);
-          release_address(c);  // answered: its address's next request must not wait for this one to close
-        }
-        if (!drop && c.phase == Connection::Phase::kDraining) {
-          char sink[4096];
-          ssize_t n = 0;
-          while ((n = ::recv(c.fd, sink, sizeof(sink), 0)) > 0) {
-          }
-          drop = n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) || now >= c.drain_until;
-        }
-        if (drop) close_connection(i);
+        if (advance(connections[i], fds[i + 1].revents, now)) close_connection(i);
       }
     }
     while (!connections.empty()) close_connection(connections.size() - 1);
