@@ -64,6 +64,10 @@ HardwareRunner::~HardwareRunner() {
   if (impl_ && impl_->plant) impl_->plant->finish();
 }
 
+std::optional<std::string> HardwareRunner::study_robot_mismatch(const RobotDescription& study_robot) const {
+  return impl_->config.study_robot_mismatch(study_robot);
+}
+
 double HardwareRunner::control_rate_hz() const { return impl_->config.control_rate_hz; }
 
 std::string HardwareRunner::realtime_warning() const { return impl_->realtime_warning; }

@@ -14,6 +14,10 @@
 #include "cpgmatch/robot/estop_latch.hpp"
 #include "cpgmatch/rollout.hpp"
 
+namespace cpgmatch {
+struct RobotDescription;
+}  // namespace cpgmatch
+
 namespace cpgmatch::robot {
 
 struct HardwareRunnerOptions {
@@ -87,6 +91,8 @@ class HardwareRunner {
   // What was refused when entering real-time mode (empty when granted); set after the first run().
   std::string realtime_warning() const;
   double control_rate_hz() const;
+  // Why a study of `study_robot` may not run on this body (RobotConfig::study_robot_mismatch), or nullopt.
+  std::optional<std::string> study_robot_mismatch(const RobotDescription& study_robot) const;
 
  private:
   struct Impl;

@@ -239,6 +239,11 @@ class HardwareWorker {
     } else if (const std::string& wanted = spec.spec->config().robot; !wanted.empty() && !domain::worker_id_belongs_to(options_.id, wanted)) {
       h.error = fmt::format("refused: the study is for robot '{}'; this agent is '{}'", wanted, options_.id);
       h.outcome = HardwareOutcome::kRefused;
+    } else if (const std::optional<std::string> other_body =
+                   spec.spec->robot() ? runner_.study_robot_mismatch(*spec.spec->robot()) : std::nullopt) {
+      // Its id may be the study's robot's while its body is another's (a hardware file of another robot).
+      h.error = "refused: " + *other_body;
+      h.outcome = HardwareOutcome::kRefused;
     } else {
       // The study's spec: its controller, feedback, contact sensing, cost and base parameters (the robot's
       // own control rate and limits stay the robot's, HardwareRunner).

@@ -74,9 +74,9 @@ TEST(StudySpec, StudyKeysAreCanonicalAndTextStaysText) {
   const StudySpec a = StudySpec::resolve("name: s\nbudget: 12\ninitial_points: 4\nrollout: {eval_s: 3}\n", "a", kShipped);
   const StudySpec b = StudySpec::resolve("name: s\nbudget: 12.0\ninitial_points: 4\nrollout: {eval_s: 3.0}\n", "b", kShipped);
   EXPECT_EQ(a.sha256(), b.sha256());
-  const StudySpec text = StudySpec::resolve("name: 1.10\nrobot: 007\n", "t", kShipped);
+  const StudySpec text = StudySpec::resolve("name: 1.10\nterrain: flat\n", "t", kShipped);
   EXPECT_EQ(text.config().name, "1.10");
-  EXPECT_EQ(text.config().robot, "007");
+  EXPECT_EQ(text.tree()["study"]["name"], "1.10");
   EXPECT_EQ(StudySpec::resolve(text.to_study_yaml(), "again", kShipped).sha256(), text.sha256());
 }
 

@@ -16,7 +16,7 @@
 
 #include <fmt/format.h>
 
-#include "cpgmatch/study/model_file.hpp"
+#include "cpgmatch/study/robot_file.hpp"
 #include "cpgmatch/study/study_config.hpp"
 #include "commands.hpp"
 #include "flag_checks.hpp"
@@ -190,8 +190,8 @@ void add_study_service_commands(CLI::App* study) {
     cmd->add_flag("--quiet", o->quiet, "no progress output");
     add_service_flags(cmd, o->service, "operator");
     cmd->callback([o] {
-      // `model: FILE` in the study: the file's content goes with it (model_file.hpp).
-      const std::string text = study::with_model_file(read_text_file(o->config, "--config"), o->config);
+      // `model: FILE` and `robot: PATH` in the study: the files' content goes with it (robot_file.hpp).
+      const std::string text = study::with_named_files(read_text_file(o->config, "--config"), o->config);
       if (text.size() > study::kMaxStudyFileBytes) {
         throw InputError(fmt::format("--config {}: {} bytes, more than a study file may have ({} bytes)", o->config,
                                      text.size(), study::kMaxStudyFileBytes));

@@ -14,7 +14,7 @@
 #include "commands.hpp"
 #include "cpgmatch/analysis/stored_study_trials.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
-#include "cpgmatch/study/model_file.hpp"
+#include "cpgmatch/study/robot_file.hpp"
 #include "cpgmatch/study/spec_rollout.hpp"
 #include "cpgmatch/text.hpp"
 #include "study_analysis.hpp"
@@ -61,7 +61,7 @@ void add_spec_commands(CLI::App& app, CLI::App* study) {
     cmd->add_flag("--json", o->json, "the canonical JSON tree with its hash instead");
     cmd->callback([o] {
       const study::StudySpec spec =
-          study::StudySpec::resolve(study::with_model_file(read_text_file(o->config, "--config"), o->config),
+          study::StudySpec::resolve(study::with_named_files(read_text_file(o->config, "--config"), o->config),
                                     o->config, study::SpecDefaults::shipped());
       print_spec(spec, "resolved from " + o->config, o->json, "");
     });

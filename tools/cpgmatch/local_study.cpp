@@ -25,7 +25,7 @@
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/text.hpp"
 #include "cpgmatch/yaml_reader.hpp"
-#include "cpgmatch/study/model_file.hpp"
+#include "cpgmatch/study/robot_file.hpp"
 #include "service_flags.hpp"
 #include "study_client.hpp"
 
@@ -138,7 +138,7 @@ LocalStudyOptions study_file_options(const std::string& path) {
   (void)study::load_study_config(path);  // fails here, naming file:line, before anything starts
   LocalStudyOptions o;
   o.config_text = read_text_file(path, "--config", kMaxYamlBytes);
-  o.config_text = study::with_model_file(o.config_text, path);  // `model: FILE` sends the file's content
+  o.config_text = study::with_named_files(o.config_text, path);  // `model: FILE`, `robot: PATH`: their content goes with it
   o.config_source = path;
   return o;
 }

@@ -10,6 +10,7 @@
 #include <fmt/ranges.h>
 
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/text.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 #include "cpgmatch/robot/motor_factory.hpp"
 
@@ -251,6 +252,33 @@ std::optional<std::string> RobotConfig::plant_mismatch() const {
   return fmt::format("{} describes {} legs; the controller and the Plant drive 1 to {}", source, leg_count(), kMaxLegs);
 }
 
+std::optional<std::string> RobotConfig::study_robot_mismatch(const RobotDescription& study_robot) const {
+  std::vector<std::string> theirs;
+  for (const LegDescription& leg : study_robot.legs) {
+    theirs.push_back(leg.hip_joint);
+    theirs.push_back(leg.knee_joint);
+  }
+  std::vector<std::string> ours;
+  std::set<std::string> protocols;
+  for (const JointConfig& j : joints) {
+    ours.push_back(j.name);
+    protocols.insert(j.protocol);
+  }
+  std::sort(theirs.begin(), theirs.end());
+  std::sort(ours.begin(), ours.end());
+  const std::string body = fmt::format("this agent drives {} ({}: {} legs, joints {}; protocol {})",
+                                       robot.empty() ? "an unnamed robot" : "'" + robot + "'", source, leg_count(),
+                                       fmt::join(ours, ", "), fmt::join(protocols, ", "));
+  if (!robot.empty() && robot != study_robot.name) {
+    return fmt::format("the study is for robot '{}'; {}", study_robot.name, body);
+  }
+  if (theirs != ours || study_robot.legs.size() != legs.size()) {
+    return fmt::format("the study's robot '{}' has {} legs with the driven joints {}; {}", study_robot.name,
+                       study_robot.legs.size(), fmt::join(theirs, ", "), body);
+  }
+  return std::nullopt;
+}
+
 std::unique_ptr<MotorProtocol> make_joint_protocol(const JointConfig& joint) {
   ProtocolSettings settings;
   settings.host_id = joint.protocol == "moteus" ? joint.moteus.host_id : 0;
@@ -262,10 +290,14 @@ std::unique_ptr<MotorProtocol> make_joint_protocol(const JointConfig& joint) {
 
 RobotConfig load_robot_config(const std::string& path) {
   const YamlReader r = YamlReader::from_file(path);
-  r.reject_unknown_keys({"emulator_only", "protocol", "bitrate", "data_bitrate", "host_id", "control_rate_hz", "motor_ranges",
+  r.reject_unknown_keys({"robot", "emulator_only", "protocol", "bitrate", "data_bitrate", "host_id", "control_rate_hz", "motor_ranges",
                          "legs", "joints", "feet", "trunk_sensor", "safety"});
   RobotConfig c;
   c.source = path;
+  c.robot = r.get_string("robot", "");
+  if (r.has("robot")) {
+    if (const auto problem = name_problem(c.robot, 63)) r.fail("robot", *problem);
+  }
   c.emulator_only = r.get_bool("emulator_only", false);
   c.protocol = r.get_string("protocol", c.protocol);
   if (!is_motor_protocol(c.protocol)) r.fail("protocol", fmt::format("'{}' is not a motor protocol (known: mit, odrive, moteus)", c.protocol));

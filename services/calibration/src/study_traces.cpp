@@ -47,6 +47,12 @@ StudyTraces load_study_traces(const study::StudyStore& store, int study_id, doub
   if (!stored) throw InputError(fmt::format("{}: no such study", where));
   if (stored->spec.json.empty()) throw InputError(fmt::format("{}: the study has no spec (an older store?)", where));
   const study::StudySpec spec = study::StudySpec::from_json_text(stored->spec.json, where);
+  if (spec.robot()) {
+    // Calibration writes a model file, and a study of a robot takes its model from the robot's description.
+    throw InputError(fmt::format("{}: the study is of robot '{}'; calibrating a robot's description is not built yet "
+                                 "(calibration fits model files of Morti's model: studies without `robot:`)",
+                                 where, spec.robot()->name));
+  }
   StudyTraces out;
   out.model = spec.model();
   out.model_yaml = model_yaml_of(spec.tree()["model"]);

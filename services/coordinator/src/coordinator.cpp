@@ -474,7 +474,9 @@ void Coordinator::note_hardware_wait(StudyRun& s, double now_s) {
         reasons.push_back(fmt::format("{} {} {}", w.hardware ? "robot" : "worker", id,
                                       w.status.empty() ? std::string("not accepting") : w.status));
       } else if (const auto r = s.refused_by.find(id); r != s.refused_by.end()) {
-        reasons.push_back(fmt::format("worker {} refused it: {}", id, r->second.why));
+        // Workers' refusals begin "refused: "; said once.
+        const std::string& why = r->second.why;
+        reasons.push_back(fmt::format("worker {} refused it: {}", id, why.rfind("refused: ", 0) == 0 ? why.substr(9) : why));
       }
     }
     if (!any_usable && !reasons.empty()) {

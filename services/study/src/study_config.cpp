@@ -1,5 +1,6 @@
 #include "cpgmatch/study/study_config.hpp"
 #include "cpgmatch/study/model_file.hpp"
+#include "cpgmatch/study/robot_file.hpp"
 #include "cpgmatch/study/study_file_keys.hpp"
 
 #include <algorithm>
@@ -19,7 +20,7 @@ namespace cpgmatch::study {
 
 namespace {
 
-StudyConfig parse(const YamlReader& r);
+StudyConfig parse(const YamlReader& r, const bo::SearchSpace* default_space);
 
 }  // namespace
 
@@ -40,10 +41,11 @@ void bind_constraints(StudyConfig& config, const std::map<std::string, double>& 
           : std::make_shared<const bo::ParameterConstraints>(config.constraints, config.space, base_parameters);
 }
 
-StudyConfig load_study_config(const std::string& path) { return parse(YamlReader::from_file(path)); }
+StudyConfig load_study_config(const std::string& path) { return parse(YamlReader::from_file(path), nullptr); }
 
-StudyConfig load_study_config_text(const std::string& text, const std::string& source_name) {
-  return parse(YamlReader::from_string(text, source_name));
+StudyConfig load_study_config_text(const std::string& text, const std::string& source_name,
+                                   const bo::SearchSpace* default_space) {
+  return parse(YamlReader::from_string(text, source_name), default_space);
 }
 
 namespace {
@@ -153,15 +155,18 @@ void parse_hardware(const YamlReader& r, StudyConfig& s) {
   }
 }
 
-StudyConfig parse(const YamlReader& r) {
+StudyConfig parse(const YamlReader& r, const bo::SearchSpace* default_space) {
   // The keys the manual lists (study_file_keys.cpp); `model`, `rollout_settings` and `base_parameters` are the
   // study's objective, resolved by StudySpec (study_spec.hpp) and checked there. Besides them, the text of a
   // `model: FILE` that the submitting client appends (model_file.hpp): not a key people write.
   const auto keys = top_level_study_file_keys();
   std::set<std::string> known(keys.begin(), keys.end());
   known.insert(kModelFileTextKey);
+  known.insert(kRobotYamlTextKey);
+  known.insert(kRobotUrdfTextKey);
   r.reject_unknown_keys(known);
   StudyConfig s;
+  if (default_space != nullptr) s.space = *default_space;  // the study's robot's (study_spec.cpp)
   // Every key has a range, checked here before anything is stored (see docs/dds.md, "Limits").
   s.name = r.require_string("name");
   if (const auto problem = name_problem(s.name, kMaxStudyNameBytes)) r.fail("name", *problem);
@@ -202,7 +207,9 @@ StudyConfig parse(const YamlReader& r) {
   s.lockstep = r.get_int_in("lockstep", 0, 0, 1024);  // more rollouts at once than this is a cluster: go async
   s.robot = r.get_string("robot", "");
   if (r.has("robot")) {
-    if (const auto problem = name_problem(s.robot, 63)) r.fail("robot", *problem);
+    // A shipped robot's name (a worker id's rule), or the path of a robot of the user's own (robot_file.hpp),
+    // which the spec replaces by that robot's name.
+    if (const auto problem = name_problem(s.robot, names_shipped_robot(s.robot) ? 63 : 1024)) r.fail("robot", *problem);
   }
   const std::string explore_on = r.get_string("explore_on", "simulation");
   if (explore_on == "hardware") {
@@ -232,10 +239,12 @@ StudyConfig parse(const YamlReader& r) {
   if (r.has("parameters")) {
     s.space = bo::SearchSpace::from_reader(r);
   } else if (r.has("fixed")) {
-    std::map<std::string, double> fixed;
+    // On top of the default space's own fixed values (a robot's preset on what it does not search).
+    std::map<std::string, double> fixed = default_space != nullptr ? default_space->fixed() : std::map<std::string, double>{};
     r.child("fixed").for_each_number([&](const std::string& k, double v, const std::string&) { fixed[k] = v; });
     try {
-      s.space = bo::SearchSpace(bo::SearchSpace::paper_cpg_space().dimensions(), fixed);
+      s.space = bo::SearchSpace(
+          (default_space != nullptr ? *default_space : bo::SearchSpace::paper_cpg_space()).dimensions(), fixed);
     } catch (const InputError& e) {
       r.fail("fixed", e.what());
     }

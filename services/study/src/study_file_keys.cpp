@@ -55,8 +55,11 @@ constexpr std::array kKeys{
     StudyFileKey{"lockstep", "integer 0..1024", "0",
                  "N > 0: reproducible; trial k is proposed from the results of trials 0..k-N-1 in trial order. 0: "
                  "asynchronous, fastest, not reproducible. study run and reproduce use their worker count."},
-    StudyFileKey{"robot", "text, at most 63 bytes", "",
-                 "The robot agent id that may run the study's hardware rollouts; another robot's agent refuses them."},
+    StudyFileKey{"robot", "a shipped robot's name, or a robot.yaml (or its folder) relative to the study file", "",
+                 "The robot the study is about (docs/your-robot.md): its model, legs, gaits, default preset and search "
+                 "space. The spec holds the robot's whole content under its hash. Only the agent of that robot (its "
+                 "worker id, or the CN before a '/') runs the study's hardware rollouts; another robot's agent refuses "
+                 "them. Without it: Morti from configs/model/morti.yaml, which `model` may override."},
     StudyFileKey{"hardware", "mapping", "",
                  "How the robot is used beside the simulation (docs/optimizer.md). Without it a study is simulation "
                  "only."},

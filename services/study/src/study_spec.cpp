@@ -2,6 +2,7 @@
 
 #include <openssl/evp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -13,8 +14,11 @@
 
 #include "cpgmatch/bo/optimizer.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/robot_description_loader.hpp"
+#include "cpgmatch/sim/planar_leg_model.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/study/model_file.hpp"
+#include "cpgmatch/study/robot_file.hpp"
 #include "cpgmatch/text.hpp"
 #include "cpgmatch/yaml_reader.hpp"
 
@@ -27,6 +31,9 @@ constexpr const char* kModel = "model";
 constexpr const char* kSettings = "rollout_settings";
 constexpr const char* kBaseParameters = "base_parameters";
 constexpr const char* kStudy = "study";
+// A study of a robot (robot_file.hpp): {"name", "robot_yaml", "urdf"}, the description's two texts as read. Such a
+// spec has no `model` section: its model is the one its robot's description builds.
+constexpr const char* kRobot = "robot";
 
 }  // namespace
 
@@ -181,7 +188,7 @@ nlohmann::json study_section(const YAML::Node& root) {
   for (const auto& entry : root) {
     const std::string key = entry.first.Scalar();
     if ((key == "model" && !entry.second.IsScalar()) || key == "rollout_settings" || key == "base_parameters" ||
-        key == kModelFileTextKey) {
+        key == kModelFileTextKey || key == kRobotYamlTextKey || key == kRobotUrdfTextKey) {
       continue;
     }
     // Enqueued gaits are trials of the study (stored with their values, phase "enqueued"), not its objective.
@@ -225,6 +232,63 @@ YamlReader reader_of(const nlohmann::json& tree, const std::string& source_name)
   return YamlReader::from_string(json_to_yaml(tree), source_name);
 }
 
+// The robot a study file names: from the texts its client sent (a robot of the user's own), else the shipped
+// robot of that name from this release. Never a file the client names: only shipped names are looked up here.
+std::optional<RobotDescription> study_robot(const YamlReader& r) {
+  if (!r.has("robot")) return std::nullopt;
+  const std::string name = r.require_string("robot");
+  if (r.has(kRobotYamlTextKey) != r.has(kRobotUrdfTextKey)) {
+    r.fail(r.has(kRobotYamlTextKey) ? kRobotYamlTextKey : kRobotUrdfTextKey,
+           fmt::format("comes with {} and {} together (the submitting client writes both)", kRobotYamlTextKey,
+                       kRobotUrdfTextKey));
+  }
+  if (r.has(kRobotYamlTextKey)) {
+    // The robot's own file:line in every error, as a submit by file would show them.
+    return parse_robot(r.require_string(kRobotYamlTextKey), name, r.require_string(kRobotUrdfTextKey),
+                       fmt::format("the URDF of {}", name));
+  }
+  const std::vector<std::string> shipped = shipped_robot_names();
+  if (!names_shipped_robot(name) || std::find(shipped.begin(), shipped.end(), name) == shipped.end()) {
+    std::string known;
+    for (const auto& n : shipped) known += (known.empty() ? "" : ", ") + n;
+    r.fail("robot", fmt::format("'{}' is not a shipped robot (shipped: {}); a robot of your own is named by its "
+                                "robot.yaml or folder, relative to the study file, whose content the submitting "
+                                "client sends (`cpgmatch study submit`, `cpgmatch study run`)",
+                                escape_for_message(name), known));
+  }
+  return load_robot((shipped_robots_dir() / name).string());
+}
+
+// A robot's search space as the optimizer's, its default preset's values on the parameters it does not search
+// fixed (as `optimize --robot` has them): every answer and export then names the whole gait it walked.
+bo::SearchSpace robot_space(const RobotDescription& robot) {
+  std::vector<bo::Dimension> dims;
+  for (const SearchParameter& p : robot.search_space) dims.push_back({p.name, p.low, p.high, false, p.unit});
+  std::map<std::string, double> fixed;
+  if (const auto preset = robot.presets.find("default"); preset != robot.presets.end()) {
+    for (const auto& [name, value] : preset->second) {
+      const bool searched = std::any_of(dims.begin(), dims.end(), [&](const bo::Dimension& d) { return d.name == name; });
+      if (!searched) fixed[name] = value;
+    }
+  }
+  return bo::SearchSpace(std::move(dims), std::move(fixed));
+}
+
+RobotDescription robot_of_tree(const nlohmann::json& section, const std::string& source_name) {
+  for (const char* key : {"name", "robot_yaml", "urdf"}) {
+    if (!section.contains(key) || !section[key].is_string()) {
+      throw InputError(fmt::format("{}: study spec's robot has no '{}' text", source_name, key));
+    }
+  }
+  const std::string name = section["name"].get<std::string>();
+  RobotDescription robot = parse_robot(section["robot_yaml"].get<std::string>(), fmt::format("{} (robot {})", source_name, name),
+                                       section["urdf"].get<std::string>(), fmt::format("{} (URDF of {})", source_name, name));
+  if (robot.name != name) {
+    throw InputError(fmt::format("{}: study spec's robot is named '{}' but its robot.yaml says '{}'", source_name, name, robot.name));
+  }
+  return robot;
+}
+
 }  // namespace
 
 nlohmann::json yaml_to_json(const YAML::Node& node) {
@@ -257,10 +321,24 @@ SpecDefaults SpecDefaults::shipped() {
 StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& source_name,
                              const SpecDefaults& defaults, std::uint32_t objective_version) {
   const YamlReader r = YamlReader::from_string(study_yaml, source_name);
-  (void)load_study_config_text(study_yaml, source_name);  // the study's own keys, with file:line errors
+  const std::optional<RobotDescription> robot = study_robot(r);
+  const std::optional<bo::SearchSpace> space = robot ? std::optional(robot_space(*robot)) : std::nullopt;
+  // The study's own keys, with file:line errors (a robot's space for `fixed` and `constraints`).
+  (void)load_study_config_text(study_yaml, source_name, space ? &*space : nullptr);
   nlohmann::json tree = nlohmann::json::object();
   tree["objective_version"] = objective_version;
   tree[kStudy] = study_section(r.node());
+  if (robot) {
+    if (r.has(kModel)) {
+      r.fail(kModel, fmt::format("a study of robot '{}' takes its model from the robot's description; to change a "
+                                 "value, copy the robot's folder, edit its robot.yaml and name the copy: robot: "
+                                 "path/to/robot.yaml",
+                                 robot->name));
+    }
+    if (const auto problem = name_problem(robot->name, 63)) r.fail("robot", fmt::format("the robot's name {}", *problem));
+    tree[kStudy]["robot"] = robot->name;  // the name, not the path it was found at: the content is below
+    tree[kRobot] = {{"name", robot->name}, {"robot_yaml", robot->yaml_text}, {"urdf", robot->urdf_text}};
+  }
 
   nlohmann::json model = default_tree(defaults.model_path);
   nlohmann::json settings = default_tree(defaults.rollout_settings_path);
@@ -273,7 +351,13 @@ StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& s
   for (const auto& [name, value] : to_map(CpgParameters{})) {
     if (!base.contains(name)) base[name] = value;
   }
-  if (r.has(kModel) && r.node()[kModel].IsScalar()) {
+  // A robot's default preset walks: its values are the study's base, under the study's own overrides.
+  if (robot && robot->presets.count("default") > 0) {
+    for (const auto& [name, value] : robot->presets.at("default")) base[name] = value;
+  }
+  if (robot) {
+    // No model section: the robot's description is the model.
+  } else if (r.has(kModel) && r.node()[kModel].IsScalar()) {
     // `model: FILE`: the client sent the file's content (model_file.hpp); its errors name that file's lines.
     const std::string file = r.node()[kModel].Scalar();
     if (!r.has(kModelFileTextKey)) {
@@ -293,10 +377,16 @@ StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& s
   numbers_to_double(model);
   numbers_to_double(settings);
   numbers_to_double(base);
-  tree[kModel] = std::move(model);
+  if (!robot) tree[kModel] = std::move(model);
   tree[kSettings] = std::move(settings);
   tree[kBaseParameters] = std::move(base);
   StudySpec spec(std::move(tree), source_name);
+  // A spec travels whole in one DDS sample (idl/cpgmatch_msgs.idl, StudySpecSample::spec_json).
+  if (spec.canonical_json().size() > kMaxSpecJsonBytes) {
+    r.fail(robot ? "robot" : "name",
+           fmt::format("the study's spec is {} bytes, more than one spec sample carries ({}){}", spec.canonical_json().size(),
+                       kMaxSpecJsonBytes, robot ? ": shorten the robot's URDF or robot.yaml (comments, visual elements)" : ""));
+  }
   // Constraints that leave too little of the space for the initial design are refused here, at the
   // constraints' line, before a service stores the study: refused only when the optimizer was made, the
   // study stayed stored and "running" with 0 trials (issue 34).
@@ -327,10 +417,14 @@ StudySpec StudySpec::from_json_text(const std::string& canonical_json, const std
 }
 
 StudySpec::StudySpec(nlohmann::json tree, const std::string& source_name) : tree_(std::move(tree)) {
-  for (const char* section : {kStudy, kModel, kSettings, kBaseParameters}) {
+  const bool of_robot = tree_.contains(kRobot);
+  for (const char* section : {kStudy, of_robot ? kRobot : kModel, kSettings, kBaseParameters}) {
     if (!tree_.contains(section) || !tree_[section].is_object()) {
       throw InputError(fmt::format("{}: study spec has no '{}' mapping", source_name, section));
     }
+  }
+  if (of_robot && tree_.contains(kModel)) {
+    throw InputError(fmt::format("{}: study spec has both a robot and a model; a robot's spec has no model", source_name));
   }
   if (!tree_.contains("objective_version") || !tree_["objective_version"].is_number_unsigned()) {
     throw InputError(fmt::format("{}: study spec has no objective_version", source_name));
@@ -339,9 +433,18 @@ StudySpec::StudySpec(nlohmann::json tree, const std::string& source_name) : tree
   canonical_ = tree_.dump();
   sha256_ = sha256_hex(canonical_);
   key_ = std::strtoull(sha256_.substr(0, 16).c_str(), nullptr, 16);
-  config_ = load_study_config_text(json_to_yaml(tree_[kStudy]), source_name + " (study)");
-  model_ = sim::parse_morti_model(reader_of(tree_[kModel], source_name + " (model)"));
+  std::optional<bo::SearchSpace> space;
+  if (of_robot) {
+    robot_ = robot_of_tree(tree_[kRobot], source_name);
+    space = robot_space(*robot_);
+  }
+  config_ = load_study_config_text(json_to_yaml(tree_[kStudy]), source_name + " (study)", space ? &*space : nullptr);
+  if (robot_ && config_.robot != robot_->name) {
+    throw InputError(fmt::format("{}: study spec's study names robot '{}' but holds robot '{}'", source_name, config_.robot, robot_->name));
+  }
+  model_ = robot_ ? sim::planar_leg_model(*robot_) : sim::parse_morti_model(reader_of(tree_[kModel], source_name + " (model)"));
   settings_ = parse_rollout_settings(reader_of(tree_[kSettings], source_name + " (rollout_settings)"));
+  if (robot_) apply_robot_legs(settings_.controller, *robot_);  // its legs, groups and gaits
   settings_.entrain_s = config_.entrain_s;
   settings_.eval_s = config_.eval_s;
   base_parameters_ = parse_parameters(reader_of(tree_[kBaseParameters], source_name + " (base_parameters)"));
@@ -350,7 +453,10 @@ StudySpec::StudySpec(nlohmann::json tree, const std::string& source_name) : tree
 
 std::string StudySpec::to_study_yaml() const {
   nlohmann::json file = tree_[kStudy];
-  if (file.contains(kModel) && file[kModel].is_string()) {
+  if (robot_) {
+    file[kRobotYamlTextKey] = tree_[kRobot]["robot_yaml"];  // the same texts, so the same hash
+    file[kRobotUrdfTextKey] = tree_[kRobot]["urdf"];
+  } else if (file.contains(kModel) && file[kModel].is_string()) {
     file[kModelFileTextKey] = json_to_yaml(tree_[kModel]);  // the same content, so the same hash
   } else {
     file[kModel] = tree_[kModel];

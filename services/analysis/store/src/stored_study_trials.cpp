@@ -7,11 +7,17 @@
 
 #include "cpgmatch/bo/model_state_json.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/study/study_spec.hpp"
 
 namespace cpgmatch::analysis {
 
 study::StudyConfig stored_study_config(const study::StoredStudy& stored) {
   try {
+    // The spec's own config when there is one: its space is the one the study searched (a robot's, when the
+    // study names one), which the submitted text alone does not say. Older stores: the text.
+    if (!stored.spec.json.empty()) {
+      return study::StudySpec::from_json_text(stored.spec.json, fmt::format("study {} spec", stored.study_id)).config();
+    }
     return study::load_study_config_text(stored.config_yaml, stored.source_name);
   } catch (const std::exception& e) {
     throw std::runtime_error(fmt::format("the store's copy of study {} (submitted from {}) is damaged: {}",

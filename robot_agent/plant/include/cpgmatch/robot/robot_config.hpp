@@ -20,6 +20,7 @@
 
 #include "cpgmatch/legs.hpp"
 #include "cpgmatch/params.hpp"
+#include "cpgmatch/robot_description.hpp"
 #include "cpgmatch/robot/mit_protocol.hpp"
 #include "cpgmatch/robot/moteus_protocol.hpp"
 #include "cpgmatch/robot/odrive_protocol.hpp"
@@ -79,6 +80,9 @@ struct SafetyConfig {
 
 struct RobotConfig {
   std::string source;                     // the file it came from
+  // The robot description (configs/robots/NAME/) of this body; empty: the file does not say. A study of
+  // another robot is refused (study_robot_mismatch).
+  std::string robot;
   std::string protocol = "mit";           // the default of joints that name no protocol
   // A description for emulators only (tests, benchmarks on a shared machine): its watchdog timeout may
   // exceed what keeps the 20 ms safety target, and the agent refuses to drive a socketcan: bus with it.
@@ -107,6 +111,10 @@ struct RobotConfig {
   bool needs_fd() const;
   // Why this description cannot drive the Plant interface (1 to kMaxLegs legs), or nullopt.
   std::optional<std::string> plant_mismatch() const;
+
+  // Why a study of `study_robot` may not run on this body, or nullopt: its name is not this file's `robot`,
+  // or its legs' hip and knee joints are not the joints this file drives. The reason names both.
+  std::optional<std::string> study_robot_mismatch(const RobotDescription& study_robot) const;
 
   // Why `params` may not run on the robot ("hip_amplitude = 0.7 is outside the safe envelope ..."),
   // or nullopt.

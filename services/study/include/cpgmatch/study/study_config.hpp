@@ -14,7 +14,7 @@
 //   explore_on: simulation  # worker kind running the exploration (budget): simulation | hardware
 //   validation: {hardware_sets: 10, spread: 0.10}   # optional: the hardware validation phase
 //   hardware: {strategy: multi_fidelity, budget: 15, max_fall_probability: 0.2}   # optional: see HardwareConfig
-//   robot: morti            # optional: only this robot agent runs its hardware rollouts
+//   robot: odrive-quadruped # optional: the study's robot (robot_file.hpp); only its agent runs hardware rollouts
 //   constraints: ["hip_offset + hip_amplitude * (1 + overswing) <= 1.33"]   # optional, see bo/constraints.hpp
 //   enqueue: [good-gait.yaml]   # optional: parameter files run first (docs/steering.md)
 #pragma once
@@ -75,8 +75,9 @@ struct StudyConfig {
   // Wall seconds a rollout may take before its candidate is re-issued; <= 0: derived from the rollout length.
   double lease_s = 0.0;
   WorkerKindWanted explore_on = WorkerKindWanted::kSimulation;
-  // The robot whose agent may run this study's hardware rollouts: its worker id (or the CN before a '/').
-  // Empty: any robot agent. Another robot's agent refuses the candidates (it never measures on the wrong body).
+  // The study's robot (robot_file.hpp): in a spec, its description's name. Only its agent may run the study's
+  // hardware rollouts: its worker id (or the CN before a '/'). Empty: Morti's model, any robot agent. Another
+  // robot's agent refuses the candidates (it never measures on the wrong body).
   std::string robot;
   ValidationConfig validation;
   HardwareConfig hardware;
@@ -112,6 +113,8 @@ void bind_constraints(StudyConfig& config, const std::map<std::string, double>& 
 // Throws InputError naming the file, line and field.
 StudyConfig load_study_config(const std::string& path);
 // The same for a study file's text (a submitted study); `source_name` stands in for the file name.
-StudyConfig load_study_config_text(const std::string& text, const std::string& source_name);
+// `default_space`: the space of a study that names no `parameters` (its robot's); null: the paper's.
+StudyConfig load_study_config_text(const std::string& text, const std::string& source_name,
+                                   const bo::SearchSpace* default_space = nullptr);
 
 }  // namespace cpgmatch::study

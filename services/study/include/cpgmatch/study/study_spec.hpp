@@ -14,7 +14,8 @@
 //
 //   {"objective_version": 1,
 //    "study": {...the study file's own keys...},
-//    "model": {...the whole robot model, each value with its source...},
+//    "model": {...the whole robot model, each value with its source...},   (or, for `robot: NAME|PATH`,
+//    "robot": {"name", "robot_yaml", "urdf"}: the robot's description, both texts as read; robot_file.hpp)
 //    "rollout_settings": {...controller, feedback, contact sensing, cost weights...},
 //    "base_parameters": {...every CPG parameter a study neither optimises nor fixes...}}
 //
@@ -35,6 +36,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "cpgmatch/params.hpp"
+#include "cpgmatch/robot_description.hpp"
 #include "cpgmatch/rollout.hpp"
 #include "cpgmatch/sim/morti_model.hpp"
 #include "cpgmatch/study/study_config.hpp"
@@ -54,6 +56,10 @@ inline constexpr std::uint32_t kObjectiveVersion = 2;
 // are migrated with this version, not the current one, so a worker of another version refuses their
 // candidates instead of mixing two objectives in one study.
 inline constexpr std::uint32_t kVersionBeforeSpecs = 1;
+
+// The largest canonical spec: it travels whole in one DDS sample (idl/cpgmatch_msgs.idl: string<65536>
+// spec_json). A Morti spec is about 10 kB; a robot's adds its URDF and robot.yaml (14 kB for Morti's).
+inline constexpr std::size_t kMaxSpecJsonBytes = 65536;
 
 // Where a stored spec came from.
 inline constexpr const char* kOriginSubmitted = "submitted";
@@ -85,6 +91,9 @@ class StudySpec {
   std::uint32_t objective_version() const { return objective_version_; }
 
   const StudyConfig& config() const { return config_; }
+  // The study's robot (`robot:` in the study file), whose description built model() and the controller's
+  // legs; none for a study of Morti's model file (configs/model/morti.yaml and its overrides).
+  const std::optional<RobotDescription>& robot() const { return robot_; }
   const sim::PlanarLegModel& model() const { return model_; }
   const RolloutSettings& rollout_settings() const { return settings_; }  // entrain/eval: the study's
   const CpgParameters& base_parameters() const { return base_parameters_; }
@@ -102,6 +111,7 @@ class StudySpec {
   std::uint64_t key_ = 0;
   std::uint32_t objective_version_ = 0;
   StudyConfig config_;
+  std::optional<RobotDescription> robot_;
   sim::PlanarLegModel model_;
   RolloutSettings settings_;
   CpgParameters base_parameters_;
