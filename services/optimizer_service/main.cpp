@@ -33,7 +33,6 @@
 #include "cpgmatch/runtime/man_pages.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/service/coordinator.hpp"
-#include "cpgmatch/sim/sim_rollout.hpp"
 #include "cpgmatch/study/store_lock.hpp"
 #include "event_queue.hpp"
 #include "loop_latency.hpp"

@@ -73,6 +73,27 @@ TEST(TraceWire, EveryValueSurvivesTheRoundTrip) {
   }
 }
 
+// A hexapod's trace (issue 31): a tick carries its legs as a sequence, any count from 1 to 8.
+TEST(TraceWire, ATickCarriesAnyNumberOfLegs) {
+  for (const std::size_t legs : {std::size_t{1}, std::size_t{6}, kMaxLegs}) {
+    domain::RolloutTraceChunk in = chunk_of(3);
+    for (auto& t : in.ticks) {
+      t.legs = PerLeg<domain::MeasuredLeg>(legs);
+      for (std::size_t leg = 0; leg < legs; ++leg) t.legs[leg] = {0.1 * leg, -0.2 * leg, 0.3, 0.4 + leg, leg % 2 == 0, 5.0 * leg};
+    }
+    const domain::RolloutTraceChunk out = from_wire(to_wire(in));
+    ASSERT_EQ(out.ticks.size(), 3u);
+    for (std::size_t i = 0; i < 3; ++i) {
+      ASSERT_EQ(out.ticks[i].legs.size(), legs);
+      for (std::size_t leg = 0; leg < legs; ++leg) {
+        EXPECT_EQ(out.ticks[i].legs[leg].knee_rad, in.ticks[i].legs[leg].knee_rad);
+        EXPECT_EQ(out.ticks[i].legs[leg].contact, in.ticks[i].legs[leg].contact);
+        EXPECT_EQ(out.ticks[i].legs[leg].foot_force_n, in.ticks[i].legs[leg].foot_force_n);
+      }
+    }
+  }
+}
+
 TEST(TraceWire, RefusesWhatTheDomainCannotHold) {
   msg::RolloutTraceChunk w = to_wire(chunk_of(2));
   w.trial_id(0x80000000u);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -274,6 +275,25 @@ TEST(Convert, EveryDomainValueSurvivesTheWire) {
   EXPECT_EQ(back.id.store_id, r.id.store_id);
   EXPECT_EQ(back.id.attempt, 2);
   EXPECT_FALSE(back.synthetic);
+  // Four legs also fill the arrays a reader built before leg_energy reads.
+  EXPECT_EQ(to_wire(r).knee_electrical_j()[3], 7.0 + 3);
+  // Six legs (a hexapod, issue 31): every leg's energy crosses in leg_energy; the four-leg arrays say "not
+  // measured" (NaN) rather than four legs of six.
+  domain::RolloutReport hexapod = r;
+  hexapod.summary.energy.hip = hexapod.summary.energy.knee = PerLeg<JointEnergy>(6);
+  for (std::size_t leg = 0; leg < 6; ++leg) {
+    hexapod.summary.energy.hip[leg] = {1.0 + leg, 2.0 + leg, 3.0 + leg, -0.1 * leg};
+    hexapod.summary.energy.knee[leg] = {5.0 + leg, 6.0 + leg, 7.0 + leg, -0.5 - leg};
+  }
+  const msg::RolloutReport hexapod_wire = to_wire(hexapod);
+  EXPECT_EQ(hexapod_wire.leg_energy().size(), 6u);
+  EXPECT_TRUE(std::isnan(hexapod_wire.hip_positive_work_j()[0]));
+  EXPECT_EQ(domain::to_json(from_wire(hexapod_wire)), domain::to_json(hexapod));
+  EXPECT_EQ(from_wire(hexapod_wire).summary.energy.knee[5].electrical_j, 12.0);
+  // A writer built before leg_energy (the arrays only): read from the arrays, four legs.
+  msg::RolloutReport old_writer = to_wire(r);
+  old_writer.leg_energy().clear();
+  EXPECT_EQ(domain::to_json(from_wire(old_writer)), domain::to_json(r));
   // A service benchmark's synthetic report keeps its mark across the wire (issue 32).
   domain::RolloutReport fake = r;
   fake.worker_kind = domain::WorkerKind::kSimulation;

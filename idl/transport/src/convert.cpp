@@ -180,25 +180,35 @@ msg::RolloutReport to_wire(const domain::RolloutReport& r) {
   w.mechanical_cost_of_transport(e.mechanical_cost_of_transport);
   w.electrical_cost_of_transport(e.electrical_cost_of_transport);
   w.signed_torque_per_speed(e.signed_torque_per_speed);
-  // This wire version carries per-leg energy for four legs (idl/cpgmatch_msgs.idl); a robot with another
-  // count sends its totals and no per-leg values (NaN), which every reader shows as "not measured".
+  // Per leg for any count (leg_energy), and in the four-leg arrays too for readers built before it.
+  if (e.hip.size() != e.knee.size() || e.hip.size() > kMaxLegs) {
+    throw WireError(fmt::format("energy of {} hips and {} knees: a report carries 1 to {} legs", e.hip.size(), e.knee.size(), kMaxLegs));
+  }
+  const auto joint_to_wire = [](const JointEnergy& j) {
+    msg::JointEnergy out;
+    out.positive_work_j(j.positive_work_j);
+    out.joule_loss_j(j.joule_loss_j);
+    out.electrical_j(j.electrical_j);
+    out.signed_mean_torque_nm(j.signed_mean_torque_nm);
+    return out;
+  };
+  for (std::size_t leg = 0; leg < e.hip.size(); ++leg) {
+    msg::LegEnergy l;
+    l.hip(joint_to_wire(e.hip[leg]));
+    l.knee(joint_to_wire(e.knee[leg]));
+    w.leg_energy().push_back(l);
+  }
+  const bool four = e.hip.size() == w.hip_positive_work_j().size();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   for (std::size_t leg = 0; leg < w.hip_positive_work_j().size(); ++leg) {
-    if (leg >= e.hip.size() || e.hip.size() != w.hip_positive_work_j().size()) {
-      const double nan = std::numeric_limits<double>::quiet_NaN();
-      for (auto* a : {&w.hip_positive_work_j(), &w.hip_joule_loss_j(), &w.hip_electrical_j(), &w.hip_signed_mean_torque_nm(),
-                      &w.knee_positive_work_j(), &w.knee_joule_loss_j(), &w.knee_electrical_j(), &w.knee_signed_mean_torque_nm()}) {
-        (*a)[leg] = nan;
-      }
-      continue;
-    }
-    w.hip_positive_work_j()[leg] = e.hip[leg].positive_work_j;
-    w.hip_joule_loss_j()[leg] = e.hip[leg].joule_loss_j;
-    w.hip_electrical_j()[leg] = e.hip[leg].electrical_j;
-    w.hip_signed_mean_torque_nm()[leg] = e.hip[leg].signed_mean_torque_nm;
-    w.knee_positive_work_j()[leg] = e.knee[leg].positive_work_j;
-    w.knee_joule_loss_j()[leg] = e.knee[leg].joule_loss_j;
-    w.knee_electrical_j()[leg] = e.knee[leg].electrical_j;
-    w.knee_signed_mean_torque_nm()[leg] = e.knee[leg].signed_mean_torque_nm;
+    w.hip_positive_work_j()[leg] = four ? e.hip[leg].positive_work_j : nan;
+    w.hip_joule_loss_j()[leg] = four ? e.hip[leg].joule_loss_j : nan;
+    w.hip_electrical_j()[leg] = four ? e.hip[leg].electrical_j : nan;
+    w.hip_signed_mean_torque_nm()[leg] = four ? e.hip[leg].signed_mean_torque_nm : nan;
+    w.knee_positive_work_j()[leg] = four ? e.knee[leg].positive_work_j : nan;
+    w.knee_joule_loss_j()[leg] = four ? e.knee[leg].joule_loss_j : nan;
+    w.knee_electrical_j()[leg] = four ? e.knee[leg].electrical_j : nan;
+    w.knee_signed_mean_torque_nm()[leg] = four ? e.knee[leg].signed_mean_torque_nm : nan;
   }
   w.synthetic(r.synthetic);
   return w;
@@ -248,13 +258,26 @@ domain::RolloutReport from_wire(const msg::RolloutReport& w) {
   e.mechanical_cost_of_transport = w.mechanical_cost_of_transport();
   e.electrical_cost_of_transport = w.electrical_cost_of_transport();
   e.signed_torque_per_speed = w.signed_torque_per_speed();
-  e.hip = PerLeg<JointEnergy>(w.hip_positive_work_j().size());
-  e.knee = PerLeg<JointEnergy>(w.knee_positive_work_j().size());
-  for (std::size_t leg = 0; leg < e.hip.size(); ++leg) {
-    e.hip[leg] = {w.hip_positive_work_j()[leg], w.hip_joule_loss_j()[leg], w.hip_electrical_j()[leg],
-                  w.hip_signed_mean_torque_nm()[leg]};
-    e.knee[leg] = {w.knee_positive_work_j()[leg], w.knee_joule_loss_j()[leg], w.knee_electrical_j()[leg],
-                   w.knee_signed_mean_torque_nm()[leg]};
+  if (!w.leg_energy().empty()) {
+    const auto joint_from_wire = [](const msg::JointEnergy& j) {
+      return JointEnergy{j.positive_work_j(), j.joule_loss_j(), j.electrical_j(), j.signed_mean_torque_nm()};
+    };
+    e.hip = PerLeg<JointEnergy>(w.leg_energy().size());
+    e.knee = PerLeg<JointEnergy>(w.leg_energy().size());
+    for (std::size_t leg = 0; leg < w.leg_energy().size(); ++leg) {
+      e.hip[leg] = joint_from_wire(w.leg_energy()[leg].hip());
+      e.knee[leg] = joint_from_wire(w.leg_energy()[leg].knee());
+    }
+  } else {
+    // A writer built before leg_energy: the four-leg arrays.
+    e.hip = PerLeg<JointEnergy>(w.hip_positive_work_j().size());
+    e.knee = PerLeg<JointEnergy>(w.knee_positive_work_j().size());
+    for (std::size_t leg = 0; leg < e.hip.size(); ++leg) {
+      e.hip[leg] = {w.hip_positive_work_j()[leg], w.hip_joule_loss_j()[leg], w.hip_electrical_j()[leg],
+                    w.hip_signed_mean_torque_nm()[leg]};
+      e.knee[leg] = {w.knee_positive_work_j()[leg], w.knee_joule_loss_j()[leg], w.knee_electrical_j()[leg],
+                     w.knee_signed_mean_torque_nm()[leg]};
+    }
   }
   return r;
 }

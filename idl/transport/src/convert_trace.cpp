@@ -14,18 +14,18 @@ msg::TraceTick tick_to_wire(const domain::MeasuredTick& t) {
   w.time_s(t.time_s);
   w.pitch_rad(t.pitch_rad);
   w.vx_mps(t.vx_mps);
-  // This wire version carries four legs per tick (idl/cpgmatch_msgs.idl).
-  if (t.legs.size() != w.hip_rad().size()) {
-    throw WireError(fmt::format("a trace tick of {} legs: this wire version carries {}", t.legs.size(), w.hip_rad().size()));
+  if (t.legs.size() > kMaxLegs) {
+    throw WireError(fmt::format("a trace tick of {} legs: a tick carries 1 to {}", t.legs.size(), kMaxLegs));
   }
-  for (std::size_t leg = 0; leg < t.legs.size(); ++leg) {
-    const domain::MeasuredLeg& l = t.legs[leg];
-    w.hip_target_rad()[leg] = l.hip_target_rad;
-    w.hip_rad()[leg] = l.hip_rad;
-    w.knee_target_rad()[leg] = l.knee_target_rad;
-    w.knee_rad()[leg] = l.knee_rad;
-    w.contact()[leg] = l.contact;
-    w.foot_force_n()[leg] = l.foot_force_n;
+  for (const domain::MeasuredLeg& l : t.legs) {
+    msg::TraceLeg leg;
+    leg.hip_target_rad(l.hip_target_rad);
+    leg.hip_rad(l.hip_rad);
+    leg.knee_target_rad(l.knee_target_rad);
+    leg.knee_rad(l.knee_rad);
+    leg.contact(l.contact);
+    leg.foot_force_n(l.foot_force_n);
+    w.legs().push_back(leg);
   }
   return w;
 }
@@ -35,10 +35,10 @@ domain::MeasuredTick tick_from_wire(const msg::TraceTick& w) {
   t.time_s = w.time_s();
   t.pitch_rad = w.pitch_rad();
   t.vx_mps = w.vx_mps();
-  t.legs = PerLeg<domain::MeasuredLeg>(w.hip_rad().size());
+  t.legs = PerLeg<domain::MeasuredLeg>(w.legs().size());
   for (std::size_t leg = 0; leg < t.legs.size(); ++leg) {
-    t.legs[leg] = {w.hip_target_rad()[leg], w.hip_rad()[leg], w.knee_target_rad()[leg],
-                   w.knee_rad()[leg],       w.contact()[leg], w.foot_force_n()[leg]};
+    const msg::TraceLeg& l = w.legs()[leg];
+    t.legs[leg] = {l.hip_target_rad(), l.hip_rad(), l.knee_target_rad(), l.knee_rad(), l.contact(), l.foot_force_n()};
   }
   return t;
 }
