@@ -99,11 +99,12 @@ TEST_F(Plots, AStudyWithoutEnergyDataDrawsFig6AloneAndSaysWhy) {
 }
 
 // A rollout trace as `cpgmatch rollout --trace` writes it, 6 s at 500 Hz and 1 Hz, each leg's phase (cycles,
-// 0..1) offset by its entry of `offsets` (FL, FR, HL, HR).
-void write_trace(const fs::path& csv, const std::array<double, 4>& offsets) {
+// 0..1) offset by its entry of `offsets` (one per leg of `legs`, Morti's FL, FR, HL, HR by default).
+void write_trace(const fs::path& csv, const std::vector<double>& offsets,
+                 const std::vector<std::string>& legs = {"FL", "FR", "HL", "HR"}) {
   std::ofstream out(csv);
   out << "time_s,x_m";
-  for (const char* leg : {"FL", "FR", "HL", "HR"}) {
+  for (const std::string& leg : legs) {
     for (const char* q : {"_phase", "_hip_target_rad", "_hip_rad", "_knee_target_rad", "_knee_rad", "_contact", "_ltd",
                           "_etd", "_eto", "_lto"}) {
       out << ',' << leg << q;
@@ -113,8 +114,8 @@ void write_trace(const fs::path& csv, const std::array<double, 4>& offsets) {
   for (int k = 0; k < 3000; ++k) {
     const double t = 0.002 * k;
     out << t << ',' << 0.3 * t;
-    for (int leg = 0; leg < 4; ++leg) {
-      const double phase = std::fmod(t + offsets[static_cast<std::size_t>(leg)], 1.0);
+    for (std::size_t leg = 0; leg < legs.size(); ++leg) {
+      const double phase = std::fmod(t + offsets[leg], 1.0);
       const bool stance = phase < 0.6;
       out << ',' << phase << ',' << 0.2 * std::sin(6.2831853 * phase) << ',' << 0.19 * std::sin(6.2831853 * phase) << ','
           << 0.5 << ',' << 0.48 << ',' << stance << ',' << (k % 200 < 20) << ',' << (k % 300 < 10) << ',' << (k % 250 < 30)
@@ -145,15 +146,36 @@ TEST_F(Plots, TraceFigureOfAWalkNamesNoPair) {
   EXPECT_NE(read(dir_ / "fig4.gp").find("no two legs in phase"), std::string::npos);
 }
 
+// A hexapod's trace (issue 31): a row per leg of its own, its first leg in the joint panels, bands for its first two.
+TEST_F(Plots, TraceFigureOfAHexapodDrawsItsSixLegs) {
+  fs::create_directories(dir_);
+  write_trace(dir_ / "tripod.csv", {0.0, 0.5, 0.5, 0.0, 0.0, 0.5}, {"L1", "R1", "L2", "R2", "L3", "R3"});
+  plot_trace(dir_ / "tripod.csv", dir_, 4.0);
+  expect_figure(dir_, "fig4");
+  const std::string script = read(dir_ / "fig4.gp");
+  for (const char* row : {"u 1:(5+0.8*", "u 1:(0+0.8*", "'R3' 0.4", "grey: L1 stance", "'L1 hip, rad'", "'L1 LTD' 8",
+                          "'R1 LTO' 1"}) {
+    EXPECT_NE(script.find(row), std::string::npos) << row;
+  }
+  EXPECT_NE(script.find("in phase: L1 = R2, L1 = L3, R1 = L2, R1 = R3, L2 = R3, R2 = L3"), std::string::npos);
+  EXPECT_EQ(script.find("FL"), std::string::npos) << "no Morti leg in a hexapod's figure";
+}
+
 TEST_F(Plots, TraceWithoutTheColumnsIsAClearError) {
   fs::create_directories(dir_);
   std::ofstream(dir_ / "bad.csv") << "time_s,foo\n0,1\n";
-  try {
-    plot_trace(dir_ / "bad.csv", dir_);
-    FAIL() << "expected an error";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("FL_phase"), std::string::npos) << e.what();
-  }
+  const auto error_of = [&](const char* file) {
+    try {
+      plot_trace(dir_ / file, dir_);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_NE(error_of("bad.csv").find("0 legs (columns LEG_phase)"), std::string::npos) << error_of("bad.csv");
+  // A leg with a phase but no joint columns: the first missing one is named.
+  std::ofstream(dir_ / "half.csv") << "time_s,FL_phase\n0,0.5\n";
+  EXPECT_NE(error_of("half.csv").find("no column 'FL_hip_target_rad'"), std::string::npos) << error_of("half.csv");
 }
 
 // The number after each occurrence of `key` in text (e.g. the upper ends of "set yrange [lo:hi]").
