@@ -71,7 +71,7 @@ class Emulator {
  public:
   explicit Emulator(const Options& o)
       : options_(o),
-        model_(with_extra_friction(sim::load_morti_model(o.model_path), o.extra_friction_nm)),
+        model_(with_extra_friction(sim::load_model_file(o.model_path), o.extra_friction_nm)),
         terrain_(sim::TerrainSpec::parse(o.terrain)),
         config_(checked_against(load_robot_config(o.robot_path), model_)),
         bus_(can::open_can_bus(o.can_uri, can::BusRole::kDevice)),

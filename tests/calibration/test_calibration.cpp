@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 
 CpgParameters matched_trot() { return load_parameters(sim::config_dir() + "/params/matched-trot.yaml"); }
 RolloutSettings settings() { return load_rollout_settings(sim::default_rollout_settings_path()); }
-sim::PlanarLegModel model(const std::string& name) { return sim::load_morti_model(sim::config_dir() + "/model/" + name + ".yaml"); }
+sim::PlanarLegModel model(const std::string& name) { return sim::load_model_file(sim::config_dir() + "/model/" + name + ".yaml"); }
 
 sim::SimRolloutJob job(const sim::PlanarLegModel& m, std::uint64_t seed, double seconds) {
   sim::SimRolloutJob j;
@@ -184,7 +184,7 @@ TEST(Calibration, RecoversAKneeSpring20PercentSofter) {
   std::ifstream in(sim::default_model_path());
   const std::string start_text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::string text = calibrated_model_text(start_text, "morti.yaml", result, {"a.csv", "b.csv"});
-  const sim::PlanarLegModel calibrated = sim::parse_morti_model(YamlReader::from_string(text, "calibrated"));
+  const sim::PlanarLegModel calibrated = sim::parse_model_file(YamlReader::from_string(text, "calibrated"));
   EXPECT_NEAR(calibrated.knee_spring.stiffness_nm_per_rad, k.estimate, 1e-4 * k.estimate);
   EXPECT_EQ(calibrated.trunk_mass_kg, model("morti").trunk_mass_kg);
   EXPECT_NE(text.find("calibrated: estimate"), std::string::npos);

@@ -47,7 +47,7 @@ ScenarioRun rollout(const std::string& model, double seconds = 2.0) {
   job.settings = load_rollout_settings(sim::default_rollout_settings_path());
   job.settings.entrain_s = seconds / 2;
   job.settings.eval_s = seconds / 2;
-  job.model = sim::load_morti_model(model_path(model));
+  job.model = sim::load_model_file(model_path(model));
   job.seed = 1;
   ScenarioRun run;
   const TraceSink record = record_trace(run.trace);
@@ -111,7 +111,7 @@ TEST(RealityGaps, EachLoadsAndRuns2s) {
 
 TEST(RealityGaps, PhysicsDiffersAsTheCauseSays) {
   const ScenarioRun morti = rollout("morti");
-  const sim::PlanarLegModel base = sim::load_morti_model(sim::default_model_path());
+  const sim::PlanarLegModel base = sim::load_model_file(sim::default_model_path());
   {
     // 20% softer knee springs under the same standing load deflect 1/0.8 = 1.25 times as far.
     const ScenarioRun worn = rollout("worn-knee-spring");
@@ -120,7 +120,7 @@ TEST(RealityGaps, PhysicsDiffersAsTheCauseSays) {
   {
     // The feet carry the whole robot: 0.5 kg more trunk raises every foot's load by the total mass's ratio.
     const ScenarioRun battery = rollout("battery-trunk");
-    const double ratio = sim::load_morti_model(model_path("battery-trunk")).total_mass_kg() / base.total_mass_kg();
+    const double ratio = sim::load_model_file(model_path("battery-trunk")).total_mass_kg() / base.total_mass_kg();
     EXPECT_NEAR(foot_force(battery) / foot_force(morti), ratio, 0.03);
     EXPECT_GT(knee_deflection(battery), 1.08 * knee_deflection(morti));
   }

@@ -38,7 +38,7 @@ std::vector<KneeDrive> knee_drives_while_lifting(const PlanarLegModel& model) {
 }
 
 TEST(MotorPhysics, TheKneeMotorRunsOnTheHipsTorqueSpeedLine) {
-  const PlanarLegModel model = load_morti_model(default_model_path());
+  const PlanarLegModel model = load_model_file(default_model_path());
   ASSERT_EQ(model.knee_motor.stall_torque_nm, model.hip_motor.stall_torque_nm);  // the same motor
   ASSERT_EQ(model.knee_motor.no_load_speed_rad_s, model.hip_motor.no_load_speed_rad_s);
   const DcMotorLine line{model.knee_motor.stall_torque_nm, model.knee_motor.no_load_speed_rad_s};
@@ -66,7 +66,7 @@ TEST(MotorPhysics, AStandingRobotsMotorsDoNoWorkButHeatAsTheirHeldTorqueSquared)
   job.settings = load_rollout_settings(default_rollout_settings_path());
   job.settings.entrain_s = 2.0;
   job.settings.eval_s = 3.0;
-  job.model = load_morti_model(default_model_path());
+  job.model = load_model_file(default_model_path());
   job.params.hip_amplitude = 0.0;
   job.params.knee_amplitude = 0.0;
   job.params.hip_offset = -0.1;

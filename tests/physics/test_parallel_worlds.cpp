@@ -17,7 +17,7 @@ SimRolloutJob trot_job(std::uint64_t seed) {
   job.settings = load_rollout_settings(default_rollout_settings_path());
   job.settings.entrain_s = 1.0;
   job.settings.eval_s = 2.0;
-  job.model = load_morti_model(default_model_path());
+  job.model = load_model_file(default_model_path());
   job.terrain = TerrainSpec::parse("rough:0.003");
   job.seed = seed;
   return job;

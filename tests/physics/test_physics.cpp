@@ -21,7 +21,7 @@ SimRolloutJob job_with(const std::string& params_file, const std::string& terrai
   job.settings = load_rollout_settings(default_rollout_settings_path());
   job.settings.entrain_s = entrain;
   job.settings.eval_s = eval;
-  job.model = load_morti_model(default_model_path());
+  job.model = load_model_file(default_model_path());
   job.terrain = TerrainSpec::parse(terrain);
   return job;
 }
@@ -174,7 +174,7 @@ TEST(Physics, APassiveHipResistsLikeABackdrivenGearedMotor) {
   // Standing, the FL hip held 0.3 rad forward, then every hip motor passive for the reflex's 0.12 s: the
   // loaded legs push the hips around. A back-driven gearbox (friction, reflected rotor inertia) slows that
   // down; a free hinge (the same model with the gearbox removed) gives way much faster.
-  const PlanarLegModel geared = load_morti_model(default_model_path());
+  const PlanarLegModel geared = load_model_file(default_model_path());
   PlanarLegModel free_hinge = geared;
   free_hinge.hip_motor.coulomb_friction_nm = 0.0;
   free_hinge.hip_motor.viscous_friction_nm_s_per_rad = 0.0;
@@ -200,7 +200,7 @@ double knee_flexion_after(const PlanarLegModel& model, double command_rad) {
 TEST(Physics, KneeStopsHoldTheFlexionInsideItsMechanicalRange) {
   // Stops moved to 0.3 rad above and 0.1 rad below the standing flexion, and the knee commanded well past
   // each: the joint must settle at the stop (the motor pushes its stall torque through the spring into it).
-  PlanarLegModel model = load_morti_model(default_model_path());
+  PlanarLegModel model = load_model_file(default_model_path());
   const double stand = model.knee_stand_flexion_rad;
   const double free_flex = knee_flexion_after(model, 0.6);
   ASSERT_GT(free_flex, 0.45) << "without a stop in the way the knee follows the command";
@@ -374,7 +374,7 @@ TEST(Physics, ModelFileErrorsNameFileLineAndField) {
     f << "trunk:\n  mass_kg: {value: -3.0}\n";
   }
   try {
-    (void)load_morti_model(path);
+    (void)load_model_file(path);
     FAIL() << "expected InputError";
   } catch (const cpgmatch::InputError& e) {
     const std::string msg = e.what();

@@ -49,7 +49,7 @@ TEST(MortiFromUrdf, LegsJointsAndGroupsAreTheYamls) {
 // Every value of the simulation's model, read from the URDF and robot.yaml, equals the hand-written file's.
 TEST(MortiFromUrdf, ModelEqualsTheHandWrittenModel) {
   const sim::PlanarLegModel from_urdf = sim::planar_leg_model(load_robot("morti"));
-  const sim::PlanarLegModel by_hand = sim::load_morti_model(sim::default_model_path());
+  const sim::PlanarLegModel by_hand = sim::load_model_file(sim::default_model_path());
   auto expect_near = [](double a, double b, const char* what) { EXPECT_NEAR(a, b, 1e-12 * std::max(1.0, std::abs(b))) << what; };
   expect_near(from_urdf.trunk_mass_kg, by_hand.trunk_mass_kg, "trunk mass");
   expect_near(from_urdf.trunk_length_m, by_hand.trunk_length_m, "trunk length");
@@ -95,7 +95,7 @@ TEST(MortiFromUrdf, ModelEqualsTheHandWrittenModel) {
 // about their pitch axis (URDF y) and the other two.
 TEST(MortiFromUrdf, InertiasAreThePlantsBodies) {
   const RobotDescription robot = load_robot("morti");
-  const sim::PlanarLegModel m = sim::load_morti_model(sim::default_model_path());
+  const sim::PlanarLegModel m = sim::load_model_file(sim::default_model_path());
   auto bar = [](double mass, double length) {
     return std::array<double, 3>{mass / 12 * (length * length + 0.0004), mass / 12 * (length * length + 0.0004), mass / 12 * 0.0008};
   };
@@ -118,7 +118,7 @@ TEST(MortiFromUrdf, InertiasAreThePlantsBodies) {
 
 TEST(MortiFromUrdf, TotalMassAndStandingHeightAreThePlants) {
   const RobotDescription robot = load_robot("morti");
-  const sim::PlanarLegModel m = sim::load_morti_model(sim::default_model_path());
+  const sim::PlanarLegModel m = sim::load_model_file(sim::default_model_path());
   EXPECT_NEAR(robot.total_mass_kg(), m.total_mass_kg(), 1e-12);
   EXPECT_NEAR(robot.total_mass_kg(), 3.88, 1e-12);
   sim::OdePlant plant(m, sim::TerrainSpec{}, 0);
@@ -136,7 +136,7 @@ TEST(MortiFromUrdf, RolloutCostsAndFallsMatchTheHandWrittenModel) {
   by_hand.settings = load_rollout_settings(sim::default_rollout_settings_path());
   by_hand.settings.entrain_s = 3.0;  // short rollouts: the models are equal or they are not within seconds
   by_hand.settings.eval_s = 3.0;
-  by_hand.model = sim::load_morti_model(sim::default_model_path());
+  by_hand.model = sim::load_model_file(sim::default_model_path());
   sim::SimRolloutJob from_urdf = by_hand;
   from_urdf.model = sim::planar_leg_model(robot);
 

@@ -67,7 +67,7 @@ TEST(StudyRobot, AShippedRobotsSpecHoldsItsDescriptionAndBuildsItsModelLegsAndSp
   // The model is the description's, not Morti's.
   const sim::PlanarLegModel expected = sim::planar_leg_model(robot);
   EXPECT_EQ(spec.model().trunk_mass_kg, expected.trunk_mass_kg);
-  EXPECT_NE(spec.model().trunk_mass_kg, sim::load_morti_model(kShipped.model_path).trunk_mass_kg);
+  EXPECT_NE(spec.model().trunk_mass_kg, sim::load_model_file(kShipped.model_path).trunk_mass_kg);
   EXPECT_EQ(spec.model().hip_positions_m(), expected.hip_positions_m());
   // Its search space and its default preset as the base.
   ASSERT_EQ(spec.config().space.size(), static_cast<int>(robot.search_space.size()));

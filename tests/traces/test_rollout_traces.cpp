@@ -246,7 +246,7 @@ TEST(StudyModelYaml, LoadsAsTheSpecsModelAndCalibrationRewritesIt) {
   const study::StudySpec spec = study::StudySpec::resolve(
       "name: s\nmodel: {knee_spring: {stiffness_nm_per_rad: 12.5}}\n", "s.yaml", study::SpecDefaults::shipped());
   const std::string yaml = calibration::model_yaml_of(spec.tree()["model"]);
-  const sim::PlanarLegModel back = sim::parse_morti_model(YamlReader::from_string(yaml, "spec model"));
+  const sim::PlanarLegModel back = sim::parse_model_file(YamlReader::from_string(yaml, "spec model"));
   EXPECT_EQ(back.knee_spring.stiffness_nm_per_rad, 12.5);
   EXPECT_EQ(back.trunk_mass_kg, spec.model().trunk_mass_kg);
   EXPECT_EQ(back.contact.friction, spec.model().contact.friction);
@@ -256,7 +256,7 @@ TEST(StudyModelYaml, LoadsAsTheSpecsModelAndCalibrationRewritesIt) {
   v.estimate = 11.75;
   r.values.push_back(v);
   const std::string text = calibration::calibrated_model_text(yaml, "spec model", r, {"trace"});
-  EXPECT_EQ(sim::parse_morti_model(YamlReader::from_string(text, "calibrated")).knee_spring.stiffness_nm_per_rad, 11.75);
+  EXPECT_EQ(sim::parse_model_file(YamlReader::from_string(text, "calibrated")).knee_spring.stiffness_nm_per_rad, 11.75);
 }
 
 }  // namespace

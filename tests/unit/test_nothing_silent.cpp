@@ -39,7 +39,7 @@ std::string error_of(const std::function<void()>& f) {
 }
 
 std::string model_error(const std::string& yaml) {
-  return error_of([&] { (void)sim::parse_morti_model(YamlReader::from_string(yaml, "m.yaml")); });
+  return error_of([&] { (void)sim::parse_model_file(YamlReader::from_string(yaml, "m.yaml")); });
 }
 
 // ---- physical ranges -----------------------------------------------------------------------------
@@ -69,7 +69,7 @@ TEST(PhysicalRanges, AbsurdButFiniteValuesAreRefusedNamingFileLineAndField) {
   }
   // The shipped model and every scenario model are inside every range.
   for (const auto& entry : fs::directory_iterator(fs::path(sim::config_dir()) / "model")) {
-    EXPECT_NO_THROW((void)sim::load_morti_model(entry.path().string())) << entry.path();
+    EXPECT_NO_THROW((void)sim::load_model_file(entry.path().string())) << entry.path();
   }
 }
 
@@ -92,7 +92,7 @@ TEST(PhysicalRanges, TheCheckNamesTheFirstValueOutsideAndItsRange) {
 // end with the reason and exit 1 (no hook) or through the hook, never SIGABRT (134).
 sim::SimRolloutJob absurd_job() {
   sim::SimRolloutJob job;
-  job.model = sim::load_morti_model(sim::default_model_path());
+  job.model = sim::load_model_file(sim::default_model_path());
   job.model.trunk_mass_kg = 1e308;
   job.settings = parse_rollout_settings(YamlReader::from_file(sim::default_rollout_settings_path()));
   job.settings.entrain_s = 0.5;

@@ -19,7 +19,7 @@ const SpecDefaults kShipped = SpecDefaults::shipped();
 
 TEST(StudySpec, ANameAloneResolvesToTheShippedModelSettingsAndParameters) {
   const StudySpec spec = StudySpec::resolve("name: plain\n", "plain.yaml", kShipped);
-  const sim::PlanarLegModel shipped_model = sim::load_morti_model(kShipped.model_path);
+  const sim::PlanarLegModel shipped_model = sim::load_model_file(kShipped.model_path);
   EXPECT_EQ(spec.model().knee_spring.stiffness_nm_per_rad, shipped_model.knee_spring.stiffness_nm_per_rad);
   EXPECT_EQ(spec.model().trunk_mass_kg, shipped_model.trunk_mass_kg);
   const RolloutSettings shipped_settings = load_rollout_settings(kShipped.rollout_settings_path);

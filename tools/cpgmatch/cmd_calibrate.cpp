@@ -157,7 +157,7 @@ void add_calibrate_command(CLI::App& app) {
       if (o->study_id != 0) throw InputError("--study: only with --store");
       source.model_name = o->model_file.empty() ? sim::default_model_path() : o->model_file;
       source.model_text = read_text(source.model_name);
-      source.start = sim::parse_morti_model(YamlReader::from_string(source.model_text, source.model_name));
+      source.start = sim::parse_model_file(YamlReader::from_string(source.model_text, source.model_name));
       const CpgParameters params = load_parameters(o->params_file);
       const RolloutSettings settings =
           load_rollout_settings(o->settings_file.empty() ? sim::default_rollout_settings_path() : o->settings_file);
@@ -185,7 +185,7 @@ void add_calibrate_command(CLI::App& app) {
       if (!o->model_file.empty()) {  // another start than the study's own model
         source.model_name = o->model_file;
         source.model_text = read_text(o->model_file);
-        source.start = sim::parse_morti_model(YamlReader::from_string(source.model_text, o->model_file));
+        source.start = sim::parse_model_file(YamlReader::from_string(source.model_text, o->model_file));
       }
       source.traces = std::move(st.traces);
       source.names = std::move(st.sources);
@@ -203,7 +203,7 @@ void add_calibrate_command(CLI::App& app) {
     if (!o->scan.empty() && !o->json) print_scan(calibration, start, values, o->scan);
     const cal::CalibrationResult result = calibration.solve();
     const std::string text = cal::calibrated_model_text(source.model_text, source.model_name, result, source.names);
-    sim::parse_morti_model(YamlReader::from_string(text, o->out));  // what is written must load
+    sim::parse_model_file(YamlReader::from_string(text, o->out));  // what is written must load
     std::ofstream out(o->out);
     if (!(out << text)) throw InputError(fmt::format("--out {}: cannot write", o->out));
     if (o->json) {

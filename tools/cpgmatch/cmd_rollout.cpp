@@ -125,7 +125,7 @@ sim::SimRolloutJob make_sim_job(const std::string& params_file, const std::vecto
   job.params = load_parameters(params_file.empty() ? sim::default_params_path() : params_file);
   for (const auto& a : assignments) apply_assignment(job.params, a);
   job.settings = load_rollout_settings(settings_file.empty() ? sim::default_rollout_settings_path() : settings_file);
-  job.model = sim::load_morti_model(model_file.empty() ? sim::default_model_path() : model_file);
+  job.model = sim::load_model_file(model_file.empty() ? sim::default_model_path() : model_file);
   job.terrain = sim::TerrainSpec::parse(terrain);
   job.seed = seed;
   return job;

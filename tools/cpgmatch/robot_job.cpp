@@ -9,6 +9,7 @@
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/robot_description_loader.hpp"
 #include "cpgmatch/sim/planar_leg_model.hpp"
+#include "cpgmatch/study/robot_file.hpp"
 
 namespace cpgmatch::cli {
 
@@ -40,16 +41,7 @@ void apply_robot(sim::SimRolloutJob& job, const RobotDescription& robot, const s
 }
 
 bo::SearchSpace robot_search_space(const RobotDescription& robot, const std::string& preset) {
-  std::vector<bo::Dimension> dims;
-  for (const SearchParameter& p : robot.search_space) dims.push_back({p.name, p.low, p.high, false, p.unit});
-  std::map<std::string, double> fixed;
-  if (const auto* values = robot_preset(robot, preset)) {
-    for (const auto& [key, value] : *values) {
-      const bool searched = std::any_of(dims.begin(), dims.end(), [&](const bo::Dimension& d) { return d.name == key; });
-      if (!searched) fixed[key] = value;
-    }
-  }
-  return bo::SearchSpace(std::move(dims), std::move(fixed));
+  return study::robot_search_space(robot, robot_preset(robot, preset));
 }
 
 }  // namespace cpgmatch::cli

@@ -1,5 +1,6 @@
 #include "cpgmatch/study/robot_file.hpp"
 
+#include <algorithm>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -64,6 +65,19 @@ std::string with_robot_files(const std::string& study_yaml, const std::string& s
                      kRobotYamlTextKey, quoted(robot.yaml_text, r, robot.yaml_source), kRobotUrdfTextKey,
                      quoted(robot.urdf_text, r, robot.urdf_source));
   return out;
+}
+
+bo::SearchSpace robot_search_space(const RobotDescription& robot, const std::map<std::string, double>* preset) {
+  std::vector<bo::Dimension> dims;
+  for (const SearchParameter& p : robot.search_space) dims.push_back({p.name, p.low, p.high, false, p.unit});
+  std::map<std::string, double> fixed;
+  if (preset != nullptr) {
+    for (const auto& [name, value] : *preset) {
+      const bool searched = std::any_of(dims.begin(), dims.end(), [&](const bo::Dimension& d) { return d.name == name; });
+      if (!searched) fixed[name] = value;
+    }
+  }
+  return bo::SearchSpace(std::move(dims), std::move(fixed));
 }
 
 std::string with_named_files(const std::string& study_yaml, const std::string& study_path) {

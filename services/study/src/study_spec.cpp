@@ -259,19 +259,10 @@ std::optional<RobotDescription> study_robot(const YamlReader& r) {
   return load_robot((shipped_robots_dir() / name).string());
 }
 
-// A robot's search space as the optimizer's, its default preset's values on the parameters it does not search
-// fixed (as `optimize --robot` has them): every answer and export then names the whole gait it walked.
+// A study's space is its robot's, the default preset fixed on what the robot does not search.
 bo::SearchSpace robot_space(const RobotDescription& robot) {
-  std::vector<bo::Dimension> dims;
-  for (const SearchParameter& p : robot.search_space) dims.push_back({p.name, p.low, p.high, false, p.unit});
-  std::map<std::string, double> fixed;
-  if (const auto preset = robot.presets.find("default"); preset != robot.presets.end()) {
-    for (const auto& [name, value] : preset->second) {
-      const bool searched = std::any_of(dims.begin(), dims.end(), [&](const bo::Dimension& d) { return d.name == name; });
-      if (!searched) fixed[name] = value;
-    }
-  }
-  return bo::SearchSpace(std::move(dims), std::move(fixed));
+  const auto preset = robot.presets.find("default");
+  return robot_search_space(robot, preset != robot.presets.end() ? &preset->second : nullptr);
 }
 
 RobotDescription robot_of_tree(const nlohmann::json& section, const std::string& source_name) {
@@ -366,10 +357,10 @@ StudySpec StudySpec::resolve(const std::string& study_yaml, const std::string& s
                                  file));
     }
     const YamlReader model_file = YamlReader::from_string(r.require_string(kModelFileTextKey), file);
-    (void)sim::parse_morti_model(model_file);  // its errors name the model file's own lines, not the merged text's
+    (void)sim::parse_model_file(model_file);  // its errors name the model file's own lines, not the merged text's
     merge_overrides(model, model_file);
   } else if (r.has(kModel)) {
-    (void)sim::parse_morti_model(r.child(kModel));  // errors name the study file's lines
+    (void)sim::parse_model_file(r.child(kModel));  // errors name the study file's lines
     merge_overrides(model, r.child(kModel));
   }
   if (r.has(kSettings)) merge_overrides(settings, r.child(kSettings));
@@ -442,7 +433,7 @@ StudySpec::StudySpec(nlohmann::json tree, const std::string& source_name) : tree
   if (robot_ && config_.robot != robot_->name) {
     throw InputError(fmt::format("{}: study spec's study names robot '{}' but holds robot '{}'", source_name, config_.robot, robot_->name));
   }
-  model_ = robot_ ? sim::planar_leg_model(*robot_) : sim::parse_morti_model(reader_of(tree_[kModel], source_name + " (model)"));
+  model_ = robot_ ? sim::planar_leg_model(*robot_) : sim::parse_model_file(reader_of(tree_[kModel], source_name + " (model)"));
   settings_ = parse_rollout_settings(reader_of(tree_[kSettings], source_name + " (rollout_settings)"));
   if (robot_) apply_robot_legs(settings_.controller, *robot_);  // its legs, groups and gaits
   settings_.entrain_s = config_.entrain_s;

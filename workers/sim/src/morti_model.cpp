@@ -50,9 +50,9 @@ MotorModel motor(const YamlReader& r, const std::string& key, MotorModel fallbac
 
 }  // namespace
 
-PlanarLegModel load_morti_model(const std::string& path) { return parse_morti_model(YamlReader::from_file(path)); }
+PlanarLegModel load_model_file(const std::string& path) { return parse_model_file(YamlReader::from_file(path)); }
 
-PlanarLegModel parse_morti_model(const YamlReader& r) {
+PlanarLegModel parse_model_file(const YamlReader& r) {
   PlanarLegModel m;
   r.reject_unknown_keys({"trunk", "femur", "shank", "foot", "leg", "knee_spring", "biarticular_spring",
                          "hip_motor", "knee_motor", "contact", "foot_sensor", "simulation"});

@@ -11,7 +11,7 @@ namespace cpgmatch::calibration {
 
 // `model_text` is the start model's YAML (`model_source` names it in messages); `trace_sources` the traces
 // fitted. Throws InputError when a fitted value's entry is not on one line (`key: {value: ...}` or
-// `key: number`), which is the only form it rewrites. The result loads with sim::parse_morti_model.
+// `key: number`), which is the only form it rewrites. The result loads with sim::parse_model_file.
 std::string calibrated_model_text(const std::string& model_text, const std::string& model_source,
                                   const CalibrationResult& result, const std::vector<std::string>& trace_sources);
 

@@ -7,7 +7,11 @@
 // since the spec holds the robot's whole content (both texts) under its hash.
 #pragma once
 
+#include <map>
 #include <string>
+
+#include "cpgmatch/bo/search_space.hpp"
+#include "cpgmatch/robot_description.hpp"
 
 namespace cpgmatch::study {
 
@@ -23,6 +27,11 @@ bool names_shipped_robot(const std::string& robot);
 // as it is. Throws InputError naming the study file, its line and the robot's own file:line when the robot
 // cannot be read or does not check.
 std::string with_robot_files(const std::string& study_yaml, const std::string& study_path);
+
+// A robot's search space as the optimizer's, with the values of `preset` (a preset's CPG parameter values, or
+// none) fixed on every parameter the robot does not search: every answer and export then names the whole gait
+// it walked. The one definition for studies (the robot's "default" preset) and `optimize --robot --preset`.
+bo::SearchSpace robot_search_space(const RobotDescription& robot, const std::map<std::string, double>* preset);
 
 // Every file a study names that its client sends: its model file (model_file.hpp) and its robot.
 std::string with_named_files(const std::string& study_yaml, const std::string& study_path);

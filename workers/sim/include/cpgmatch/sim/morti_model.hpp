@@ -94,9 +94,10 @@ struct PlanarLegModel {
   }
 };
 
-// Loads a model YAML; throws InputError naming the file, line and field on bad input.
-PlanarLegModel load_morti_model(const std::string& path);
+// Loads a model file (configs/model/*.yaml: Morti's and the reality-gap overlays; absent keys keep Morti's
+// defaults above); throws InputError naming the file, line and field on bad input.
+PlanarLegModel load_model_file(const std::string& path);
 // The same from a parsed tree (a study spec's model section); errors name the reader's source.
-PlanarLegModel parse_morti_model(const YamlReader& reader);
+PlanarLegModel parse_model_file(const YamlReader& reader);
 
 }  // namespace cpgmatch::sim
