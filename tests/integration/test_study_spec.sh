@@ -60,7 +60,7 @@ sleep 3  # the optimizer drops the stopped workers
 start_worker future --slots 1 --objective-version 99
 sed -i 's/^name: .*/name: version-mismatch/' "$WORK/s.yaml"
 id3=$(cli study submit --config "$WORK/s.yaml" --timeout 30) || fail "submit failed"
-waits() { [[ $(json_field "$(state_json "$id3")" message) == *"worker future refused it"*"objective version 2; this worker computes version 99"* ]]; }
+waits() { [[ $(json_field "$(state_json "$id3")" message) == *"worker future refused it"*"objective version 3; this worker computes version 99"* ]]; }
 wait_until 30 waits || fail "the study does not say why it waits: $(state_json "$id3")"
 [[ $(json_field "$(state_json "$id3")" completed) == 0 ]] || fail "a refused candidate was counted"
 refusals=$(sql "$WORK/s.db" "select count(*) from attempts where study_id=$id3 and outcome='refused'")
@@ -76,21 +76,21 @@ wait_until 60 study_is "$id3" done || fail "the study did not finish on a worker
 kill "$OPT_PID"; wait "$OPT_PID" 2>/dev/null || true
 
 # An old store, written before specs: opens, its studies get a spec marked as migrated with the objective
-# version of the releases before specs (1), so this release's workers (version 2) refuse its open study's
+# version of the releases before specs (1), so this release's workers (version 3) refuse its open study's
 # candidates and it says so instead of mixing objectives; a worker of version 1 serves it.
 cp "$FIXTURES/store-0.1.0-before-specs.db" "$WORK/old.db"
 start_optimizer "$WORK/old.db"
 wait_until 30 study_is 2 running || fail "the old store's open study is not served: $(state_json 2)"
 [[ $(sql "$WORK/old.db" "select count(*) from studies where spec_origin like 'migrated:%objective version 1%' and json_extract(spec_json, '$.objective_version') = 1") == 2 ]] \
   || fail "old studies not migrated as version 1: $(sql "$WORK/old.db" 'select study_id, spec_origin from studies')"
-old_waits() { [[ $(json_field "$(state_json 2)" message) == *"objective version 1; this worker computes version 2"* ]]; }
+old_waits() { [[ $(json_field "$(state_json 2)" message) == *"objective version 1; this worker computes version 3"* ]]; }
 wait_until 30 old_waits || fail "the migrated study does not say why it waits: $(state_json 2)"
 start_worker version1 --slots 1 --objective-version 1
 wait_until 60 study_is 2 done || fail "the old store's open study did not finish on a version-1 worker: $(state_json 2)"
 # Its finished (real-rollout) study re-derives from the store; the rerun names both versions.
 out=$("$BIN/cpgmatch" rerun --store "$WORK/old.db" --study 1 --trial 5 --json 2>"$WORK/rerun.err") || fail "rerun on the old store failed"
-[[ $(json_field "$out" spec_objective_version) == 1 && $(json_field "$out" rerun_objective_version) == 2 ]] || fail "rerun versions: $out"
-grep -q "objective version 1; this release computes version 2" "$WORK/rerun.err" || fail "rerun did not say the versions differ"
-echo "old store trial 5 under version 2: equal=$(json_field "$out" equal)"
+[[ $(json_field "$out" spec_objective_version) == 1 && $(json_field "$out" rerun_objective_version) == 3 ]] || fail "rerun versions: $out"
+grep -q "objective version 1; this release computes version 3" "$WORK/rerun.err" || fail "rerun did not say the versions differ"
+echo "old store trial 5 under version 3: equal=$(json_field "$out" equal)"
 echo "PASS study specs: 8/8 trials of a study served by differently configured workers re-run to the bit;" \
   "study show resubmitted: same hash $sha; version-99 worker refused $r2 times, 0 mixed; old store migrated as version 1 and served by a version-1 worker"

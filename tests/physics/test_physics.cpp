@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "cpgmatch/errors.hpp"
@@ -212,6 +213,34 @@ TEST(Physics, KneeStopsHoldTheFlexionInsideItsMechanicalRange) {
   EXPECT_NEAR(extended, -0.1, 0.03);
 }
 
+// The legs' joints are two-row pins (two ODE distance joints each, PlanarJoint in ode_plant.cpp): whatever
+// the gait does, walking or falling over, each joint's two halves must stay together to the solver's drift
+// (measured: 47 um walking, 59 um falling; ERP 0.2 corrects a step's drift of order h^2 a at foot strikes).
+// A pin whose rows do not span the plane (its two arms made collinear: tried) slides 9-14 cm apart at once.
+double largest_gap_over(const CpgParameters& params) {
+  SimRolloutJob job = job_with("", "flat", 10.0, 10.0);
+  OdePlant plant(job.model, job.terrain, 0);
+  double gap = 0.0;
+  const RolloutResult r = run_rollout(plant, params, job.settings, 0, [&](const TraceSample&) {
+    gap = std::max(gap, plant.largest_joint_gap_m());
+  });
+  EXPECT_GT(r.sim_time_s, 0.0);
+  return gap;
+}
+
+TEST(Physics, EveryLegJointHoldsItsTwoBodiesTogetherWhileTheRobotWalksAndWhileItFalls) {
+  SimRolloutJob job = job_with("matched-trot.yaml", "flat", 10.0, 10.0);
+  EXPECT_LT(largest_gap_over(job.params), 5e-4) << "walking";
+  CpgParameters falling = job.params;  // hips swinging far and fast: this gait tips the robot over
+  falling.hip_amplitude = 0.65;
+  falling.hip_offset = 0.35;
+  falling.frequency = 2.0;
+  SimRolloutJob check = job;
+  check.params = falling;
+  ASSERT_TRUE(run_sim_rollout(check).fell) << "the falling gait must fall for this test to mean anything";
+  EXPECT_LT(largest_gap_over(falling), 5e-4) << "falling";
+}
+
 // Feedback activity of one mechanism, summed over legs, in the window_s seconds after `from_s` (the
 // default 1 s is one step cycle: every leg meets the moved ground once).
 int activity_after(const SimRolloutJob& job, double from_s, bool FeedbackActivity::*mechanism,
@@ -270,21 +299,23 @@ TEST(Physics, OnGentlyRoughGroundFeedbackFallsNoMoreOftenThanOpenLoop) {
 
 TEST(Physics, OnAFiveCentimetreStepUpTheFeedbackCarriesATrotThatTheOpenLoopTripsOn) {
   // A trot the paper study found (seed 2's best gait, session 7: close to the matched trot, with a hip
-  // offset of -0.22 rad and an amplitude of 0.29 rad) walking into a 5-cm step (18% of the leg's length)
-  // 1.5 m ahead. Open loop its front feet hit the step's face in swing and it pitches over; with feedback
-  // the early-touchdown reflex pulls the knee up and the leg gets onto the step (measured by hand with
-  // seeds 0-3: 0 / 4 falls with feedback, 4 / 4 without, 1 / 4 with the reflex alone switched off).
+  // offset of -0.22 rad and an amplitude of 0.29 rad) walking into a 5-cm step (18% of the leg's length).
+  // Open loop its front feet hit the step's face in swing and it pitches over; with feedback the
+  // early-touchdown reflex pulls the knee up and the leg gets onto the step. Where the step stands decides
+  // in which phase the feet meet it, and whether one trot trips at one place is a matter of round-off (at
+  // 1.5 m ahead the open loop falls or walks on as hip_offset moves by 1e-6 rad: 2 of 5 such runs fell
+  // before objective version 3, 1 of 5 after), so the claim is checked over eight places, 1.3 to 2.0 m
+  // ahead: measured 1 / 8 falls with feedback, 6 / 8 (version 2) and 5 / 8 (version 3) without.
   // A behaviour check of the shipped controller on one gait, not of any one change.
   int falls_with = 0, falls_without = 0;
-  for (std::uint64_t seed = 0; seed < 3; ++seed) {
-    SimRolloutJob job = job_with("matched-trot.yaml", "step:0.05@1.5", 10.0, 10.0);
+  for (int place = 0; place < 8; ++place) {
+    SimRolloutJob job = job_with("matched-trot.yaml", fmt::format("step:0.05@{:.1f}", 1.3 + 0.1 * place), 10.0, 10.0);
     set_gait(job.params, {-0.21635711675320726, 0.28734797037527804, 0.3, 0.75, 0.0, 0.5});
-    job.seed = seed;
     falls_with += run_sim_rollout(job).fell;
     falls_without += falls_with_feedback(job, FeedbackConfig::none());
   }
-  EXPECT_LT(falls_with, falls_without);
-  EXPECT_EQ(falls_with, 0);
+  EXPECT_LE(falls_with, 2);
+  EXPECT_GE(falls_without - falls_with, 3) << falls_with << " falls with feedback, " << falls_without << " without";
 }
 
 TEST(Physics, DownAFiveCentimetreStepTheReflexWithAHipThatDrivesOnAfterTheImpactCarriesATrot) {

@@ -1,6 +1,7 @@
 #include "cpgmatch/sim/ode_plant.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <mutex>
 #include <numbers>
@@ -30,21 +31,38 @@ struct Vec2 {
 };
 Vec2 direction(double a) { return {std::sin(a), -std::cos(a)}; }
 
-double body_angle_z(dBodyID body) {
+// A body's rotation about z (radians), which the joints read some 50 times per physics step: it is computed
+// from the quaternion once per step (remember_angle_z, after every projection onto the plane) into a slot
+// that the body's user data points to, since atan2 alone was 5% of a rollout. The same bits as computing it
+// at each read.
+double body_angle_z(dBodyID body) { return *static_cast<const double*>(dBodyGetData(body)); }
+
+void remember_angle_z(dBodyID body) {
   const dReal* q = dBodyGetQuaternion(body);
-  return 2.0 * std::atan2(q[3], q[0]);
+  *static_cast<double*>(dBodyGetData(body)) = 2.0 * std::atan2(q[3], q[0]);
 }
 
-// Wraps an angle into (-pi, pi].
-double wrap_angle(double a) { return std::remainder(a, 2.0 * std::numbers::pi); }
+// Wraps an angle into (-pi, pi] (std::remainder's value; inside (-pi, pi) that is the angle itself, which
+// skips the call for almost every joint angle).
+double wrap_angle(double a) {
+  if (std::abs(a) < std::numbers::pi) return a;
+  return std::remainder(a, 2.0 * std::numbers::pi);
+}
 
-// A revolute joint of the sagittal plane: an ODE ball joint (3 constraint rows) plus, where the joint has
-// end stops, a one-axis angular motor that adds a row only while a stop is reached. Why not an ODE hinge
-// (5 rows): in a planar model its two out-of-plane rotation rows only repeat what planarity already
-// gives, and dWorldStep's dense solver costs O(rows^3): with 12 hinges it spent ~65% of a rollout in
-// the LDLT factorisation of 63 joint rows. Planarity is kept instead by projecting every body onto the
-// plane after each step (OdePlant::Impl::project_onto_plane), as ODE's own Plane2D demo does; every force
-// in the model lies in the plane, so the projection only removes round-off.
+// A revolute joint of the sagittal plane: two constraint rows, the two in-plane components of "the anchor
+// of body b stays on body a", plus, where the joint has end stops, a one-axis angular motor that adds a row
+// only while a stop is reached. ODE has no two-row pin, so the rows are two of its distance joints (DBall):
+// body b's anchor P keeps its distance kPinArm_m from the points P + kPinArm_m x and P + kPinArm_m y fixed on
+// body a. Their rows are unit vectors along those two perpendicular arms, rotating with body a: they span
+// the plane, so they constrain exactly the in-plane motion of P that a pin does, and the constraint force is
+// the pin's (only its position-drift correction acts along the arms instead of along x and y; the other
+// intersection of the two circles lies kPinArm_m sqrt(2) away, far beyond any drift).
+// Why not more rows: dWorldStep's dense solver costs O(rows^3). An ODE hinge (5 rows) spent ~65% of a
+// rollout in the LDLT factorisation of 63 joint rows (until 2026-12-02); a ball joint (3 rows, until
+// 2026-12-07) adds an out-of-plane row per joint that, like the hinge's two out-of-plane rotation rows,
+// only repeats what planarity gives. Planarity is kept instead by projecting every body onto the plane
+// after each step (OdePlant::Impl::project_onto_plane), as ODE's own Plane2D demo does; every force in the
+// model lies in the plane, so the projection only removes round-off.
 //
 // Conventions are the hinge's that cpgmatch used before: the angle is body b's counter-clockwise rotation
 // relative to body a, zero in the pose the joint was made in; a positive torque turns b counter-clockwise
@@ -53,9 +71,15 @@ class PlanarJoint {
  public:
   PlanarJoint() = default;
   PlanarJoint(dWorldID world, dBodyID a, dBodyID b, double anchor_x, double anchor_y) : a_(a), b_(b) {
-    ball_ = dJointCreateBall(world, nullptr);
-    dJointAttach(ball_, a, b);
-    dJointSetBallAnchor(ball_, anchor_x, anchor_y, 0.0);
+    const double arm_x[2] = {kPinArm_m, 0.0}, arm_y[2] = {0.0, kPinArm_m};
+    for (int k = 0; k < 2; ++k) {
+      pin_[k] = dJointCreateDBall(world, nullptr);
+      dJointAttach(pin_[k], a, b);
+      dJointSetDBallAnchor1(pin_[k], anchor_x + arm_x[k], anchor_y + arm_y[k], 0.0);
+      dJointSetDBallAnchor2(pin_[k], anchor_x, anchor_y, 0.0);
+      dJointSetDBallDistance(pin_[k], kPinArm_m);
+    }
+    dBodyGetPosRelPoint(a, anchor_x, anchor_y, 0.0, anchor_on_a_);
     zero_ = relative_angle();
   }
 
@@ -80,6 +104,16 @@ class PlanarJoint {
     dBodyAddTorque(b_, 0, 0, torque);
   }
 
+  // How far apart the joint's two halves are (metres): its anchor as fixed on body a and as fixed on body b.
+  // The solver's drift: some tens of micrometres on a sound joint (tests/physics: < 60 um walking or falling).
+  double gap_m() const {
+    dVector3 on_a, on_b;
+    dBodyGetRelPointPos(a_, anchor_on_a_[0], anchor_on_a_[1], anchor_on_a_[2], on_a);
+    dJointGetDBallAnchor2(pin_[0], on_b);
+    return std::sqrt((on_a[0] - on_b[0]) * (on_a[0] - on_b[0]) + (on_a[1] - on_b[1]) * (on_a[1] - on_b[1]) +
+                     (on_a[2] - on_b[2]) * (on_a[2] - on_b[2]));
+  }
+
   // A user-mode motor knows its angle only from us: called before every step.
   void update_stops() const {
     if (stops_ != nullptr) dJointSetAMotorAngle(stops_, 0, angle());
@@ -89,7 +123,11 @@ class PlanarJoint {
   double relative_angle() const { return body_angle_z(b_) - body_angle_z(a_); }
 
   dBodyID a_ = nullptr, b_ = nullptr;
-  dJointID ball_ = nullptr;
+  // Long against any drift of the anchor (tens of micrometres), short against the bodies (a few centimetres): the
+  // rows' conditioning does not depend on it.
+  static constexpr double kPinArm_m = 0.05;
+  dJointID pin_[2] = {nullptr, nullptr};
+  dVector3 anchor_on_a_{};  // the anchor in body a's frame
   dJointID stops_ = nullptr;
   double zero_ = 0.0;
 };
@@ -172,7 +210,9 @@ struct OdePlant::Impl {
   dGeomID moving_ground = nullptr;  // the plane of a kShift terrain
   bool shifted = false;
   dBodyID trunk = nullptr;
-  dJointID rail = nullptr;
+  // Each body's angle slot (body_angle_z): the trunk and up to three segments per leg.
+  std::array<double, 1 + 3 * kMaxLegs> body_angles{};
+  std::size_t body_angles_used = 0;
   std::vector<LegBodies> legs;
   PerLeg<JointCommand> commands;
   std::vector<dJointFeedback> contact_feedback;
@@ -260,6 +300,11 @@ struct OdePlant::Impl {
     }
   }
 
+  void give_angle_slot(dBodyID body) {
+    dBodySetData(body, &body_angles.at(body_angles_used++));
+    remember_angle_z(body);
+  }
+
   dBodyID make_segment(Vec2 start, double angle, const SegmentModel& seg) {
     dBodyID body = dBodyCreate(world);
     const Vec2 d = direction(angle);
@@ -267,6 +312,7 @@ struct OdePlant::Impl {
     dMatrix3 R;
     dRFromAxisAndAngle(R, 0, 0, 1, angle);
     dBodySetRotation(body, R);
+    give_angle_slot(body);
     // A slender bar along the body's local -y axis.
     dMass mass;
     dMassSetBoxTotal(&mass, seg.mass_kg, 0.02, seg.length_m, 0.02);
@@ -302,8 +348,9 @@ struct OdePlant::Impl {
     dMass tm;
     dMassSetBoxTotal(&tm, model.trunk_mass_kg, model.trunk_length_m, model.trunk_height_m, model.trunk_depth_m);
     dBodySetMass(trunk, &tm);
-    rail = dJointCreatePlane2D(world, nullptr);
-    dJointAttach(rail, trunk, nullptr);
+    give_angle_slot(trunk);
+    // The rail (forward, up, pitch) needs no joint: the projection onto the plane after every step keeps the
+    // trunk in it, as it keeps the legs (a Plane2D joint's three rows only repeated that; until 2026-12-07).
 
     const std::vector<double> hip_x = model.hip_positions_m();
     legs.resize(hip_x.size());
@@ -503,6 +550,7 @@ struct OdePlant::Impl {
     const double norm = std::hypot(q[0], q[3]);
     dQuaternion fixed{q[0] / norm, 0, 0, q[3] / norm};
     dBodySetQuaternion(body, fixed);
+    remember_angle_z(body);
     const dReal* w = dBodyGetAngularVel(body);
     dBodySetAngularVel(body, 0, 0, w[2]);
     const dReal* p = dBodyGetPosition(body);
@@ -554,6 +602,15 @@ void OdePlant::advance(double dt_s) {
 }
 
 double OdePlant::time_step_s() const { return impl_->dt; }
+
+double OdePlant::largest_joint_gap_m() const {
+  double gap = 0.0;
+  for (const auto& leg : impl_->legs) {
+    gap = std::max({gap, leg.hip.gap_m(), leg.knee.gap_m()});
+    if (leg.foot != nullptr) gap = std::max(gap, leg.ankle.gap_m());
+  }
+  return gap;
+}
 
 std::optional<EnergyModel> OdePlant::energy_model() const {
   const PlanarLegModel& m = impl_->model;

@@ -34,6 +34,9 @@ class OdePlant final : public Plant {
   double time_step_s() const override;
   // The model's hip and knee motor lines and its total mass.
   std::optional<EnergyModel> energy_model() const override;
+  // The model's health: the largest distance between the two halves of any leg joint (metres), i.e. how far
+  // the solver lets a joint drift apart; some tens of micrometres on a sound model.
+  double largest_joint_gap_m() const;
 
  private:
   struct Impl;
