@@ -58,12 +58,12 @@ domain::Candidate candidate(int trial, std::uint64_t seed = 0) {
       {{"hip_offset", -0.4}, {"hip_amplitude", 0.65}, {"knee_amplitude", 0.2}, {"frequency", 2.6},
        {"duty_factor_front", 0.7}, {"duty_factor_hind", 0.25}, {"knee_phase_shift", 0.45}, {"overswing", 0.35}},
   };
-  static const std::vector<std::string> terrains = {"flat", "rough:0.003", "step:0.01@0.5"};
+  static const std::vector<std::string> terrains = {"flat", "rough:0.003", "step:0.01@0.5", "shift:-0.01@0.4"};
   domain::Candidate c;
   c.id = domain::AttemptId{77, 1, trial, 0};
   c.worker_id = "w1";
   c.lease_s = 60.0;
-  c.spec_key = (trial % 4 == 3 ? kStiff : kPlain)->key();
+  c.spec_key = (trial % 2 == 1 ? kStiff : kPlain)->key();
   c.parameters = gaits[static_cast<std::size_t>(trial) % gaits.size()];
   c.rollout = {0.3, 0.5, terrains[static_cast<std::size_t>(trial) % terrains.size()], seed ? seed : 100u + static_cast<std::uint64_t>(trial)};
   return c;
@@ -112,7 +112,7 @@ class ScopedEnv {
 };
 
 TEST(RolloutSlot, EveryRolloutInAKeptProcessEqualsItsFreshProcessRunInAnyOrder) {
-  constexpr int kCandidates = 5;
+  constexpr int kCandidates = 6;
   std::vector<std::string> fresh;
   for (int t = 0; t < kCandidates; ++t) fresh.push_back(fresh_process_report(candidate(t)));
   // Candidates that measure different things, or the comparison below could not tell one from another.
@@ -120,8 +120,8 @@ TEST(RolloutSlot, EveryRolloutInAKeptProcessEqualsItsFreshProcessRunInAnyOrder) 
     for (int b = a + 1; b < kCandidates; ++b) EXPECT_NE(fresh[a], fresh[b]) << "candidates " << a << " and " << b;
   }
   // Each order in one kept process: forwards, backwards, and repeats (the same candidate first and last,
-  // one twice in a row), across two specs held at once.
-  const std::vector<std::vector<int>> orders = {{0, 1, 2, 3, 4}, {4, 3, 2, 1, 0}, {2, 2, 0, 3, 1, 4, 3, 0, 1, 2}};
+  // one twice in a row), across two specs held at once and every kind of ground.
+  const std::vector<std::vector<int>> orders = {{0, 1, 2, 3, 4, 5}, {5, 4, 3, 2, 1, 0}, {2, 2, 0, 3, 5, 1, 4, 3, 0, 1, 2, 5}};
   for (const auto& order : orders) {
     RolloutSlot slot(slot_options());
     pid_t process = 0;
@@ -175,6 +175,18 @@ TEST(RolloutSlot, GarbageOnTheAnswerStreamCostsThatCandidateAndTheProcess) {
   EXPECT_FALSE(r.ok());
   EXPECT_NE(r.error.find("unreadable rollout output"), std::string::npos) << r.error;
   EXPECT_EQ(slot.rollout_process_id(), 0) << "a process out of step with its requests was kept";
+  const domain::RolloutReport next = slot.execute(candidate(2));
+  ASSERT_TRUE(next.ok()) << next.error;
+  EXPECT_EQ(without_wall_time(next), fresh_process_report(candidate(2)));
+}
+
+TEST(RolloutSlot, AnOdeFailureIsADivergedRolloutAndTheNextCandidateGetsAFreshProcess) {
+  const ScopedEnv fault("CPGMATCH_TEST_ROLLOUT_FAULT", "ode_failure:13");
+  RolloutSlot slot(slot_options());
+  const domain::RolloutReport diverged = slot.execute(candidate(1, 13));
+  EXPECT_EQ(diverged.outcome, domain::Outcome::kDiverged);
+  EXPECT_NE(diverged.error.find("simulation failed: ODE INTERNAL ERROR"), std::string::npos) << diverged.error;
+  EXPECT_EQ(slot.rollout_process_id(), 0) << "the process that said it ends was not reaped";
   const domain::RolloutReport next = slot.execute(candidate(2));
   ASSERT_TRUE(next.ok()) << next.error;
   EXPECT_EQ(without_wall_time(next), fresh_process_report(candidate(2)));

@@ -64,6 +64,7 @@ std::optional<TestFault> test_fault_from_environment() {
 
 void inject(const TestFault& fault) {
   if (fault.kind == "abort") std::abort();
+  if (fault.kind == "ode_failure") answer_ode_failure("ODE INTERNAL ERROR (injected by CPGMATCH_TEST_ROLLOUT_FAULT)");
   if (fault.kind == "hang") {
     while (true) pause();
   }

@@ -13,8 +13,8 @@
 // key (spec_cache.hpp); each rollout builds its own ODE world.
 //
 // Tests only: CPGMATCH_TEST_ROLLOUT_FAULT=KIND:SEED makes the rollout of seed SEED fail after its request
-// was read and its job built: KIND `abort` (SIGABRT), `hang` (never answers) or `garbage` (prints a line
-// that is no answer, then answers).
+// was read: KIND `abort` (SIGABRT), `hang` (never answers), `garbage` (prints a line that is no answer,
+// then answers) or `ode_failure` (what ODE's failure handler does: a diverged report, then exit).
 #pragma once
 
 namespace cpgmatch::worker {
