@@ -146,10 +146,16 @@ TEST(RolloutSlot, AProcessThatCrashesMidRolloutCostsThatCandidateOnly) {
   EXPECT_EQ(crashed.outcome, domain::Outcome::kError);
   EXPECT_NE(crashed.error.find("killed by signal " + std::to_string(SIGABRT)), std::string::npos) << crashed.error;
   EXPECT_EQ(slot.rollout_process_id(), 0) << "the crashed process was not reaped";
-  // The next candidate runs in a fresh process (which is sent the spec again) and measures what it always does.
+  EXPECT_NE(kill(before, 0), 0) << "the crashed process is still there";
+  // Its replacement starts before the next candidate arrives; that candidate runs in it (it is sent the
+  // spec again) and measures what it always does.
+  slot.prepare();
+  const pid_t replacement = slot.rollout_process_id();
+  EXPECT_NE(replacement, 0);
+  EXPECT_NE(replacement, before);
   const domain::RolloutReport next = slot.execute(candidate(1));
   ASSERT_TRUE(next.ok()) << next.error;
-  EXPECT_NE(slot.rollout_process_id(), before);
+  EXPECT_EQ(slot.rollout_process_id(), replacement);
   EXPECT_EQ(without_wall_time(next), fresh_process_report(candidate(1)));
 }
 
@@ -215,6 +221,17 @@ TEST(RolloutSlot, ARefusedCandidateLeavesTheProcessServing) {
   EXPECT_EQ(slot.execute(c).outcome, domain::Outcome::kRefused);
   EXPECT_TRUE(slot.execute(candidate(2)).ok());
   EXPECT_EQ(slot.rollout_process_id(), process);
+}
+
+TEST(RolloutSlot, FakeRolloutsStartNoProcess) {
+  SlotOptions o = slot_options();
+  o.fake_rollout_s = 0.0;
+  RolloutSlot slot(o);
+  slot.prepare();
+  const domain::RolloutReport r = slot.execute(candidate(0));
+  EXPECT_TRUE(r.ok()) << r.error;
+  EXPECT_TRUE(r.synthetic);
+  EXPECT_EQ(slot.rollout_process_id(), 0);
 }
 
 // The protocol itself: a process is sent a study's spec once, then only its key.

@@ -94,15 +94,17 @@ class SimWorker {
   }
 
  private:
-  // Each slot keeps its rollout process on its own thread (it dies with the thread that started it) and
-  // ends it when the slot ends.
+  // Each slot keeps its rollout process on its own thread (it dies with the thread that started it),
+  // started before the first candidate, and ends it when the slot ends.
   void slot_loop() {
     RolloutSlot slot(slot_options_);
+    slot.prepare();  // while the worker is still being discovered, not when its first candidate arrives
     while (const std::optional<domain::Candidate> c = queue_.take()) {
       const domain::RolloutReport report = slot.execute(*c);
       if (!report.ok()) spdlog::warn("study {} trial {}: {}", c->id.study_id, c->id.trial_id, report.error);
       link_.publish(report);
       queue_.finish(*c);
+      slot.prepare();  // after the report is out: a process the candidate cost is replaced before the next
     }
   }
 

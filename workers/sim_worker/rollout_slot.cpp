@@ -76,6 +76,12 @@ std::vector<std::string> rollout_command(const SlotOptions& o) {
 
 RolloutSlot::RolloutSlot(SlotOptions options) : options_(std::move(options)), process_(rollout_command(options_)) {}
 
+void RolloutSlot::prepare() {
+  if (options_.fake_rollout_s >= 0.0) return;
+  std::string failure;
+  (void)process_.ensure_running(failure);  // a failure is the next candidate's to report
+}
+
 domain::RolloutReport RolloutSlot::execute(const domain::Candidate& c) {
   const SlotOptions& o = options_;
   if (auto why = domain::check_parameters(c.parameters)) return failed(c, o, "bad parameters: " + *why);

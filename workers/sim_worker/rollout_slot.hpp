@@ -48,6 +48,11 @@ class RolloutSlot {
   // thread that started it (PR_SET_PDEATHSIG).
   domain::RolloutReport execute(const domain::Candidate& c);
 
+  // Starts the rollout process now if none runs (nothing for fake rollouts), so that the next candidate
+  // does not wait for a process to start: at the slot's start, and after a candidate that cost the process.
+  // A process that cannot be started now is tried again by the next candidate.
+  void prepare();
+
   // The rollout's own run time, as its process measured it, of the last candidate that ran (benchmarks:
   // the report's wall_time_s is the whole time in the slot).
   double last_rollout_run_s() const { return last_rollout_run_s_; }
