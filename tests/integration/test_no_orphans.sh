@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Issue 34: no orphaned processes, no silent failure of `study run`.
 #  1. `study run` with 10-minute rollouts gets SIGTERM, SIGINT, then SIGHUP mid-rollout: it exits, and every
-#     process it started (optimizer, workers and their `--run-one` rollout processes) is gone.
+#     process it started (optimizer, workers and their rollout processes, `--serve-rollouts`) is gone.
 #  2. A worker SIGKILLed mid-rollout: its rollout process dies with it (PR_SET_PDEATHSIG).
 #  3. A study whose every trial fails (each rollout killed by a 0.01 s lease): `study run` exits 1 saying so.
 # Processes are found by a marker in their environment (inherited by every descendant), not by name, so the
@@ -15,7 +15,7 @@ marked() {  # marked MARK: pids of live processes whose environment holds CPGMAT
   done
   return 0
 }
-rollout_running() { for p in $(marked "$1"); do grep -q -- "--run-one" "/proc/$p/cmdline" 2>/dev/null && return 0; done; return 1; }
+rollout_running() { for p in $(marked "$1"); do grep -qE -- "--run-one|--serve-rollouts" "/proc/$p/cmdline" 2>/dev/null && return 0; done; return 1; }
 none_marked() { [[ -z $(marked "$1") ]]; }
 describe() { for p in $(marked "$1"); do echo "$p: $(tr '\0' ' ' <"/proc/$p/cmdline" 2>/dev/null)"; done; }
 

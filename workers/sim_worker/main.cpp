@@ -4,7 +4,8 @@
 //
 // Announces itself (id, capacity, load) every heartbeat; receives the candidates addressed to it (the
 // optimizer's writer filters on worker_id, see worker_link.hpp); runs up to --slots rollouts at once, each in its
-// own process because Debian's ODE is not thread-safe; returns one report per candidate. On SIGTERM it
+// own process because Debian's ODE is not thread-safe (a process kept per slot, `--serve-rollouts`, that is
+// sent each study's spec once); returns one report per candidate. On SIGTERM it
 // stops accepting, finishes the rollouts already running, hands back the queued ones (by leaving the
 // domain, which makes the optimizer re-issue them) and exits 0.
 #include <sys/prctl.h>
@@ -31,7 +32,10 @@
 #include "cpgmatch/domain/report_json.hpp"
 #include "cpgmatch/sim/ode_errors.hpp"
 #include "cpgmatch/worker/candidate_queue.hpp"
+#include "cpgmatch/worker/spec_book.hpp"
 #include "cpgmatch/worker/worker_link.hpp"
+#include "rollout_request.hpp"
+#include "rollout_server.hpp"
 #include "rollout_slot.hpp"
 
 namespace cpgmatch::worker {
@@ -74,7 +78,10 @@ class SimWorker {
         link_(link_config(o), queue_),
         specs_(link_, o.objective_version) {
     slot_options_.worker_id = o.id;
-    slot_options_.find_spec = [this](std::uint64_t key) { return specs_.find(key); };
+    slot_options_.find_spec = [this](std::uint64_t key) {
+      SpecBook::Lookup found = specs_.find(key);
+      return SpecLookup{std::move(found.spec), std::move(found.refusal)};
+    };
     slot_options_.fake_rollout_s = o.fake_rollout_ms >= 0.0 ? o.fake_rollout_ms / 1000.0 : -1.0;
     for (int i = 0; i < o.slots; ++i) slots_.emplace_back([this] { slot_loop(); });
   }
@@ -87,12 +94,17 @@ class SimWorker {
   }
 
  private:
+  // Each slot keeps its rollout process on its own thread (it dies with the thread that started it),
+  // started before the first candidate, and ends it when the slot ends.
   void slot_loop() {
+    RolloutSlot slot(slot_options_);
+    slot.prepare();  // while the worker is still being discovered, not when its first candidate arrives
     while (const std::optional<domain::Candidate> c = queue_.take()) {
-      const domain::RolloutReport report = execute_candidate(*c, slot_options_);
+      const domain::RolloutReport report = slot.execute(*c);
       if (!report.ok()) spdlog::warn("study {} trial {}: {}", c->id.study_id, c->id.trial_id, report.error);
       link_.publish(report);
       queue_.finish(*c);
+      slot.prepare();  // after the report is out: a process the candidate cost is replaced before the next
     }
   }
 
@@ -157,6 +169,7 @@ int main(int argc, char** argv) {
   CLI::App app{"cpgmatch-sim-worker: runs simulated rollouts for the optimizer service"};
   worker::Options o;
   bool run_one = false;
+  bool serve_rollouts = false;
   std::string log_level = "info";
   app.add_option("--domain", o.domain, "DDS domain id (default: $CPGMATCH_DOMAIN, else $ROS_DOMAIN_ID, else 0)");
   app.add_option("--slots", o.slots, "concurrent rollouts (default: number of cores)");
@@ -178,6 +191,9 @@ int main(int argc, char** argv) {
   runtime::add_version_flag(app, "cpgmatch-sim-worker");
   runtime::add_man_page_flag(app, "cpgmatch-sim-worker");
   app.add_flag("--run-one", run_one, "internal: one rollout, request as JSON on stdin")->group("");
+  app.add_flag("--serve-rollouts", serve_rollouts,
+               "internal: a slot's rollout process, one request per line on stdin, one answer per line on stdout")
+      ->group("");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -188,6 +204,7 @@ int main(int argc, char** argv) {
   return run_reporting_errors([&] {
     runtime::export_config_dir();
     if (run_one) return worker::run_one();
+    if (serve_rollouts) return worker::serve_rollouts();
     runtime::apply_dds_flags(dds_flags);
     if (o.domain < 0) o.domain = cpgmatch::dds::default_domain();
     cpgmatch::dds::validate_domain(o.domain);
