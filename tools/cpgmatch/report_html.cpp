@@ -25,7 +25,7 @@ const json& at_or_null(const json& j, const char* key) {
 }
 
 // The unit as the table prints it: a dimensionless parameter (a fraction of a cycle) says so.
-std::string unit_text(const std::string& unit) { return unit.empty() || unit == "1" ? "1 (fraction)" : unit; }
+std::string unit_text(const std::string& unit) { return unit.empty() || unit == "1" ? "fraction" : unit; }
 
 // The answer of the study: the GP's recommendation beside the lowest single cost, parameter by parameter, in
 // the study's search space's order and with its units; parameters the space holds fixed follow by name.
@@ -54,7 +54,7 @@ std::string gait_table(const json& report, const std::vector<ReportParameter>& s
     if (rec.is_object()) out += fmt::format("<td class=\"num\">{}</td>", number(at_or_null(rec.at("params"), n.c_str())));
     out += fmt::format("<td class=\"num\">{}</td></tr>\n", number(at_or_null(best.at("params"), n.c_str())));
   }
-  out += "<tr class=\"sum\"><td>cost</td><td>1</td>";
+  out += "<tr class=\"sum\"><td>cost</td><td>dimensionless</td>";
   if (rec.is_object()) {
     out += fmt::format("<td class=\"num\">{} observed, {} ± {} GP posterior</td>", number(rec.at("observed_cost")),
                        number(rec.at("predicted_cost")), number(rec.at("predicted_sd")));
