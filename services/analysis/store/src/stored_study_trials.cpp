@@ -59,7 +59,7 @@ StudyTrials trials_from_stored_study(const study::StoredStudy& stored) {
   s.seed = cfg.optimizer.seed;
   for (const auto& d : cfg.space.dimensions()) {
     s.bounds[d.name] = {d.low, d.high};
-    s.dimensions.push_back({d.name, d.low, d.high, d.log_scale});
+    s.dimensions.push_back({d.name, d.low, d.high, d.log_scale, d.unit});
   }
   s.log_cost = cfg.optimizer.cost_transform == bo::CostTransform::kLog;
   if (!stored.model_state.is_null()) {
