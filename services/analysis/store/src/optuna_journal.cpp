@@ -78,7 +78,7 @@ std::vector<std::string> write_optuna_journal(const std::vector<ExportedStudy>& 
       }
       // Per leg by the robot's leg name, as the CSV's columns (leg_energy.L1.hip_positive_work_j).
       for (const auto& leg : t.leg_energy) {
-        for (const auto& item : leg.values.items()) user_attrs[fmt::format("leg_energy.{}.{}", leg.leg, item.key())] = item.value();
+        for (const auto& item : leg.values.items()) user_attrs[leg_energy_column(leg.leg, item.key())] = item.value();
       }
       const double start_s = t.issued_at_s > 0.0 ? t.issued_at_s : s.created_at_s;
       Json fields = {{"study_id", journal_id},

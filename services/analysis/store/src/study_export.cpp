@@ -156,7 +156,9 @@ std::string csv_cell(const Json& v) {
 
 }  // namespace
 
-std::string leg_column(const std::string& leg, const std::string& key) { return fmt::format("leg_energy.{}.{}", leg, key); }
+std::string leg_energy_column(const std::string& leg, const std::string& key) {
+  return fmt::format("leg_energy.{}.{}", leg, key);
+}
 
 void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
   std::vector<std::string> columns;
@@ -172,7 +174,7 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
       }
       for (const auto& leg : t.leg_energy) {
         for (const auto& item : leg.values.items()) {
-          const std::string name = leg_column(leg.leg, item.key());
+          const std::string name = leg_energy_column(leg.leg, item.key());
           if (seen_leg_columns.insert(name).second) leg_columns.push_back(name);
         }
       }
@@ -199,7 +201,7 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
       }
       std::map<std::string, Json> by_column;
       for (const auto& leg : t.leg_energy) {
-        for (const auto& item : leg.values.items()) by_column[leg_column(leg.leg, item.key())] = item.value();
+        for (const auto& item : leg.values.items()) by_column[leg_energy_column(leg.leg, item.key())] = item.value();
       }
       for (const auto& l : leg_columns) {
         const auto it = by_column.find(l);

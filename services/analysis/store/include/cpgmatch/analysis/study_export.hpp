@@ -58,6 +58,9 @@ struct ExportedStudy {
 // named by `legs`; none when the report has no energy. The one reading for exports and report.html.
 std::vector<ExportedLegEnergy> leg_energy_of(const nlohmann::json& report, const std::vector<std::string>& legs);
 
+// A per-leg column's name, as the CSV and the Optuna journal write it: leg_energy.L1.hip_positive_work_j.
+std::string leg_energy_column(const std::string& leg, const std::string& key);
+
 // Throws InputError for a study whose stored config cannot be read (it names the study).
 ExportedStudy export_study(const study::StoredStudy& stored);
 
