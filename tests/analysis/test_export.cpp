@@ -3,14 +3,18 @@
 // replays them. (tests/cli/test_export_optuna.sh loads a real study's journal in Optuna itself.)
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include <unistd.h>
 
 #include <filesystem>
+#include <map>
 #include <sstream>
 
 #include "cpgmatch/analysis/optuna_journal.hpp"
 #include "cpgmatch/analysis/stored_study_trials.hpp"
 #include "cpgmatch/analysis/study_export.hpp"
+#include "cpgmatch/study/study_spec.hpp"
 #include "cpgmatch/study/study_store.hpp"
 
 namespace cpgmatch::analysis {
@@ -164,6 +168,137 @@ TEST_F(ExportTest, JsonNestsTrialsUnderTheirStudy) {
   EXPECT_EQ(j["studies"][0]["trials"].size(), 5u);
   EXPECT_EQ(j["studies"][0]["fixed"]["frequency"], 1.0);
   EXPECT_EQ(j["studies"][0]["trials"][3]["params"].size(), 6u);
+}
+
+// Every leg of a robot with `legs` legs: the hip's positive work 10 + leg J, the knee's 20 + leg J.
+domain::RolloutReport walked_with_energy(int study, int trial, std::size_t legs) {
+  domain::RolloutReport r = report(study, trial, false, 1.5);
+  r.summary.energy.hip = PerLeg<JointEnergy>(legs);
+  r.summary.energy.knee = PerLeg<JointEnergy>(legs);
+  for (std::size_t leg = 0; leg < legs; ++leg) {
+    r.summary.energy.hip[leg] = JointEnergy{10.0 + leg, 1.0, 11.0 + leg, 0.5};
+    r.summary.energy.knee[leg] = JointEnergy{20.0 + leg, 2.0, 22.0 + leg, -0.5};
+  }
+  return r;
+}
+
+std::vector<std::string> csv_lines(const std::vector<ExportedStudy>& studies) {
+  std::ostringstream out;
+  write_csv(studies, out);
+  std::vector<std::string> lines;
+  std::istringstream in(out.str());
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  return lines;
+}
+
+// One column of a CSV line (no quoted commas in the lines these tests read).
+std::vector<std::string> cells(const std::string& line) {
+  std::vector<std::string> out;
+  std::istringstream in(line);
+  for (std::string cell; std::getline(in, cell, ',');) out.push_back(cell);
+  if (!line.empty() && line.back() == ',') out.push_back("");
+  return out;
+}
+
+class RobotExportTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("export-robot-" + std::to_string(getpid()));
+    fs::create_directories(dir_);
+    store_path_ = (dir_ / "s.db").string();
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  // A study as the service stores it: its resolved spec beside the text, one trial that walked.
+  ExportedStudy stored_robot_study(const std::string& yaml, std::size_t legs) {
+    const auto spec = study::StudySpec::resolve(yaml, "s.yaml", study::SpecDefaults::shipped());
+    study::StudyStore store(store_path_);
+    const int id = store.create_study(spec.config().name, yaml, "s.yaml", 1.7e9,
+                                      study::StoredSpec{spec.canonical_json(), spec.sha256(), study::kOriginSubmitted});
+    study::StoredTrial t;
+    t.trial_id = 0;
+    t.x = Eigen::VectorXd::Constant(static_cast<int>(spec.config().space.dimensions().size()), 0.3);
+    store.add_trials(id, {t});
+    store.complete_trial(walked_with_energy(id, 0, legs), 1.7e9 + 5);
+    return export_study(store.load_all().back());
+  }
+  fs::path dir_;
+  std::string store_path_;
+};
+
+TEST_F(RobotExportTest, AHexapodsColumnsNameItsSixLegsAndItsOwnParameters) {
+  const ExportedStudy s = stored_robot_study("name: hex\nbudget: 4\ninitial_points: 2\nrobot: moteus-hexapod\n", 6);
+  EXPECT_EQ(s.legs, (std::vector<std::string>{"L1", "R1", "L2", "R2", "L3", "R3"}));
+  const auto lines = csv_lines({s});
+  ASSERT_EQ(lines.size(), 2u);
+  const auto header = cells(lines[0]);
+  const auto row = cells(lines[1]);
+  ASSERT_EQ(header.size(), row.size()) << lines[0] << "\n" << lines[1];
+  std::map<std::string, std::string> value;
+  for (std::size_t i = 0; i < header.size(); ++i) value[header[i]] = row[i];
+  // Each leg's values under its own name, in the robot's order (L3 is the fifth leg).
+  EXPECT_EQ(value.at("leg_energy.L1.hip_positive_work_j"), "10");
+  EXPECT_EQ(value.at("leg_energy.L3.hip_positive_work_j"), "14");
+  EXPECT_EQ(value.at("leg_energy.R3.knee_electrical_j"), "27");
+  EXPECT_EQ(value.at("leg_energy.R3.knee_signed_mean_torque_nm"), "-0.5");
+  int leg_columns = 0;
+  for (const auto& h : header) leg_columns += h.rfind("leg_energy.", 0) == 0;
+  EXPECT_EQ(leg_columns, 6 * 8);
+  for (const char* morti : {"FL", "FR", "HL", "HR"}) {
+    EXPECT_EQ(lines[0].find(fmt::format(".{}.", morti)), std::string::npos) << "a Morti leg in: " << lines[0];
+  }
+  // The robot's own search space: its parameters, and no knee_amplitude or frequency (its preset fixes them).
+  std::vector<std::string> params;
+  for (const auto& h : header) if (h.rfind("params_", 0) == 0) params.push_back(h.substr(7));
+  std::vector<std::string> space;
+  for (const auto& d : s.parameters) space.push_back(d.name);
+  EXPECT_EQ(params, space);
+  EXPECT_EQ(value.count("params_frequency"), 0u);
+  EXPECT_EQ(s.fixed.at("frequency"), 1.5);
+
+  const auto j = export_json({s});
+  EXPECT_EQ(j["studies"][0]["legs"], nlohmann::json({"L1", "R1", "L2", "R2", "L3", "R3"}));
+  EXPECT_EQ(j["studies"][0]["trials"][0]["leg_energy"]["R2"]["hip_positive_work_j"], 13.0);
+  EXPECT_EQ(j["studies"][0]["parameters"][1]["unit"], "rad");  // hip_amplitude, as the robot.yaml says
+
+  std::ostringstream journal;
+  write_optuna_journal({s}, journal);
+  EXPECT_NE(journal.str().find("\"leg_energy.R3.knee_positive_work_j\":25"), std::string::npos);
+  EXPECT_EQ(journal.str().find("leg_energy.FL."), std::string::npos);
+}
+
+// A store from before robots: no spec, Morti's four legs in the reports. Every column it exported before the
+// per-leg columns existed is still there, in the same place, and the per-leg columns after them name Morti's legs.
+TEST_F(RobotExportTest, AnOldFourLegStoreExportsTheColumnsItDidThenMortisLegs) {
+  {
+    study::StudyStore store(store_path_);
+    const int id = store.create_study("old", "name: old\nbudget: 2\ninitial_points: 1\n", "old.yaml", 1.6e9);
+    study::StoredTrial t;
+    t.trial_id = 0;
+    t.x = Eigen::VectorXd::Constant(6, 0.2);
+    store.add_trials(id, {t});
+    store.complete_trial(walked_with_energy(id, 0, 4), 1.6e9 + 5);
+  }
+  const auto stored = study::StudyStore(store_path_).load_all();
+  ASSERT_TRUE(stored.at(0).spec.json.empty());
+  const ExportedStudy s = export_study(stored.at(0));
+  EXPECT_EQ(s.legs, (std::vector<std::string>{"FL", "FR", "HL", "HR"}));
+  const auto lines = csv_lines({s});
+  ASSERT_EQ(lines.size(), 2u);
+  // The header `cpgmatch export` wrote for this store before per-leg columns (main at 2496198).
+  const std::string before =
+      "study_id,study_name,trial_id,rollout,state,phase,source,outcome,ok,fell,cost,J_feedback,J_distance,J_pitch,"
+      "J_contact,J_periodicity,feedback_late_touchdown,feedback_early_touchdown,feedback_early_toeoff,"
+      "feedback_late_toeoff,normalized_torque,summed_torque_nm,mean_speed_mps,distance_m,fall_time_s,worker_id,"
+      "worker_kind,synthetic,attempt,faults,issued_at,reported_at,wall_time_s,error,params_hip_offset,"
+      "params_hip_amplitude,params_duty_factor_front,params_duty_factor_hind,params_knee_phase_shift,params_overswing";
+  ASSERT_EQ(lines[0].rfind(before + ",", 0), 0u) << lines[0];
+  const auto legs = cells(lines[0].substr(before.size() + 1));
+  ASSERT_EQ(legs.size(), 4u * 8u);
+  EXPECT_EQ(legs.front(), "leg_energy.FL.hip_positive_work_j");
+  EXPECT_EQ(legs.back(), "leg_energy.HR.knee_signed_mean_torque_nm");
+  const auto row = cells(lines[1]);
+  ASSERT_EQ(row.size(), cells(before).size() + legs.size());
+  EXPECT_EQ(row[cells(before).size() + 3 * 8], "13") << "HR's hip";
 }
 
 }  // namespace

@@ -88,6 +88,18 @@ TEST_F(Plots, StudyFigures) {
   }
 }
 
+// The parameter figures label each axis with the study's own parameter and its unit (a robot's search space).
+TEST_F(Plots, ParameterAxesCarryTheirUnits) {
+  StudyTrials s = synthetic_study(0);
+  s.dimensions = {{"hip_offset", -0.3, 0.3, false, "rad"}, {"overswing", 0.0, 0.5, false, "1"}};
+  const FigureReport report = plot_study(s, dir_);
+  EXPECT_TRUE(report.failed.empty()) << report.failed.front();
+  const std::string slices = read(dir_ / "param_slices.gp");
+  EXPECT_NE(slices.find("set xlabel 'hip_offset (rad)'"), std::string::npos);
+  EXPECT_NE(slices.find("set xlabel 'overswing'"), std::string::npos) << "a dimensionless one has no unit";
+  EXPECT_NE(read(dir_ / "param_parallel.gp").find("\"hip_offset\\n(rad)\" 1"), std::string::npos);
+}
+
 TEST_F(Plots, AStudyWithoutEnergyDataDrawsFig6AloneAndSaysWhy) {
   StudyTrials s = synthetic_study(0);
   for (auto& t : s.trials) t.energy = EnergyMeasures{};

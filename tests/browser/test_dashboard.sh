@@ -2,7 +2,8 @@
 # `cpgmatch dashboard` in a real browser during a real study: an optimizer, a simulation worker (fake rollouts)
 # and the dashboard over DDS on the loopback; headless Chromium opens the page while the study runs and keeps it
 # open (the study waits for a worker until the page shows that it does). The page shows the study running,
-# Chart.js (served by the dashboard, any other host unreachable) draws its three charts, its completed count
+# Chart.js (served by the dashboard, any other host unreachable) draws its four charts (the legs' one names
+# Morti's four legs, the study's robot), its completed count
 # rises without a reload (server-sent events), and once the study is done the count on the page equals
 # `cpgmatch status --json`'s. The screenshot taken mid-study is kept in
 # $ARTIFACTS. Also: a second dashboard on the same port, and a bad --bind, exit 2 naming the flag; --bind
@@ -35,6 +36,7 @@ state="document.querySelector('$row .state')?.textContent"
   --eval "$state" --eval "+($completed)" --eval "+document.body.dataset.updates" \
   --eval "typeof Chart" --eval "Object.keys(Chart.instances).length" \
   --eval "Chart.getChart('chart-cost').data.datasets[0].data.length + Chart.getChart('chart-cost').data.datasets[1].data.length" \
+  --eval "document.getElementById('legs-title').textContent" \
   --screenshot "$ARTIFACTS/dashboard-during-study.png" \
   --wait "$state === 'done'" \
   --eval "+($completed)" --eval "+document.body.dataset.updates" >"$WORK/page.jsonl" 2>"$WORK/cdp.err" &
@@ -44,21 +46,22 @@ wait_until 40 test -s "$WORK/page.jsonl" || fail "the page never showed what the
 start_worker w --slots 1 --fake-rollout-ms 120
 wait "$BROWSER" || fail "chromium: $(cat "$WORK/cdp.err")"
 mapfile -t page <"$WORK/page.jsonl"
-[[ ${#page[@]} -eq 9 ]] || fail "chromium gave ${#page[@]} values: ${page[*]}"
+[[ ${#page[@]} -eq 10 ]] || fail "chromium gave ${#page[@]} values: ${page[*]}"
 [[ ${page[0]} == "\"waiting for simulation workers: none on domain $DOMAIN\"" ]] || fail "the page's message: ${page[0]}"
 page=("${page[@]:1}")
 [[ ${page[0]} == '"running"' ]] || fail "mid-study the page said the study is ${page[0]}"
 [[ ${page[3]} == '"function"' ]] || fail "Chart.js did not load from the dashboard: typeof Chart = ${page[3]}"
-[[ ${page[4]} -eq 3 ]] || fail "${page[4]} charts drawn, not 3 (cost, terms, parameters)"
+[[ ${page[4]} -eq 4 ]] || fail "${page[4]} charts drawn, not 4 (cost, terms, parameters, legs)"
 [[ ${page[5]} -ge 3 ]] || fail "the cost chart has ${page[5]} points mid-study"
+[[ ${page[6]} == '"Legs: 4 (FL FR HL HR)'* ]] || fail "the legs' title: ${page[6]}"
 [[ -s $ARTIFACTS/dashboard-during-study.png ]] || fail "no screenshot"
 # Live: the same page, never reloaded, went from the mid-study count to the end through further updates.
-((page[6] > page[1])) || fail "the page's completed count did not rise without a reload: ${page[1]} -> ${page[6]}"
-((page[7] > page[2])) || fail "no further update reached the page: ${page[2]} -> ${page[7]} snapshots"
+((page[7] > page[1])) || fail "the page's completed count did not rise without a reload: ${page[1]} -> ${page[7]}"
+((page[8] > page[2])) || fail "no further update reached the page: ${page[2]} -> ${page[8]} snapshots"
 status=$(state_json "$id")
 [[ $(json_field "$status" state) == done ]] || fail "status: $status"
-[[ $(json_field "$status" completed) -eq ${page[6]} ]] ||
-  fail "the page says $((page[6])) completed, status --json $(json_field "$status" completed)"
+[[ $(json_field "$status" completed) -eq ${page[7]} ]] ||
+  fail "the page says $((page[7])) completed, status --json $(json_field "$status" completed)"
 
 # One dashboard per port: a second one on the same port exits 2 naming --port; a bad address names --bind.
 set +e
@@ -103,4 +106,4 @@ seen() {  # seen WHO: "<studies> <trials of the first>" on WHO's dashboard
 viewer_saw() { [[ $(seen viewer) == "1 8" ]]; }
 wait_until 10 viewer_saw || fail "the viewer's dashboard shows (studies, trials) $(seen viewer), not 1 study of 8 trials"
 [[ $(seen nobody) == "0 0" ]] || fail "a dashboard without a certificate read the secure domain: $(seen nobody)"
-echo "PASS dashboard in chromium: mid-study ${page[1]} completed, live to ${page[6]} (= status --json) over $((page[7] - page[2])) updates; screenshot $ARTIFACTS/dashboard-during-study.png; under DDS-Security the viewer reads 8 of 8 trials, no certificate none"
+echo "PASS dashboard in chromium: mid-study ${page[1]} completed, live to ${page[7]} (= status --json) over $((page[8] - page[2])) updates, ${page[6]}; screenshot $ARTIFACTS/dashboard-during-study.png; under DDS-Security the viewer reads 8 of 8 trials, no certificate none"

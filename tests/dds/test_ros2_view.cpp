@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -109,6 +110,49 @@ TEST(Ros2Messages, ATrialCarriesItsParametersAndMeasurementsInSiUnits) {
   EXPECT_DOUBLE_EQ(r.early_toeoff_fraction_(), 0.0625);
   EXPECT_DOUBLE_EQ(r.fall_time_s_(), 3.5);
   EXPECT_DOUBLE_EQ(r.mean_speed_mps_(), 0.31);
+}
+
+// A hexapod's study on the ROS 2 view: its six legs by name in the state and in each trial, each leg's energy in
+// that order, and its own search space with units; no Morti leg anywhere.
+TEST(Ros2Messages, AHexapodsStateAndTrialsNameItsSixLegsAndItsOwnParameters) {
+  const std::vector<std::string> legs = {"L1", "R1", "L2", "R2", "L3", "R3"};
+  domain::StudyState st = state(5, domain::StudyStatus::kRunning, 3);
+  st.leg_names = legs;
+  st.search_space = {{"hip_amplitude", 0.1, 0.45, false, "rad"}, {"overswing", 0.0, 0.5, false, ""}};
+  const ros::StudyState_ s = dds::to_ros(st);
+  ASSERT_EQ(s.leg_names_().size(), 6u);
+  EXPECT_EQ(s.leg_names_()[4].to_string(), "L3");
+  ASSERT_EQ(s.search_names_().size(), 2u);
+  EXPECT_EQ(s.search_names_()[0].to_string(), "hip_amplitude");
+  EXPECT_EQ(s.search_units_()[0].to_string(), "rad");
+  EXPECT_EQ(s.search_units_()[1].to_string(), "1") << "dimensionless, as the .msg says";
+  EXPECT_DOUBLE_EQ(s.search_high_()[0], 0.45);
+  EXPECT_DOUBLE_EQ(s.search_low_()[1], 0.0);
+
+  domain::TrialRecord t;
+  t.study_id = 5;
+  t.leg_names = legs;
+  t.report.summary.energy.hip = PerLeg<JointEnergy>(6);
+  t.report.summary.energy.knee = PerLeg<JointEnergy>(6);
+  for (std::size_t leg = 0; leg < 6; ++leg) {
+    t.report.summary.energy.hip[leg].positive_work_j = 10.0 + leg;
+    t.report.summary.energy.knee[leg].electrical_j = 40.0 + leg;
+  }
+  const ros::TrialRecord_ r = dds::to_ros(t);
+  ASSERT_EQ(r.leg_names_().size(), 6u);
+  EXPECT_EQ(r.leg_names_()[5].to_string(), "R3");
+  ASSERT_EQ(r.leg_hip_positive_work_j_().size(), 6u);
+  EXPECT_DOUBLE_EQ(r.leg_hip_positive_work_j_()[4], 14.0);
+  EXPECT_DOUBLE_EQ(r.leg_knee_electrical_j_()[5], 45.0);
+  for (const auto& name : r.leg_names_()) {
+    for (const char* morti : {"FL", "FR", "HL", "HR"}) EXPECT_NE(name.to_string(), morti);
+  }
+  // A report that measured no energy per leg: every leg named, each value NaN (not measured).
+  domain::TrialRecord unmeasured = t;
+  unmeasured.report.summary.energy = EnergyMeasures{};
+  const ros::TrialRecord_ u = dds::to_ros(unmeasured);
+  ASSERT_EQ(u.leg_knee_positive_work_j_().size(), 6u);
+  EXPECT_TRUE(std::isnan(u.leg_knee_positive_work_j_()[2]));
 }
 
 TEST(Ros2Messages, AWorkerThatLeftIsNotAlive) {
@@ -257,8 +301,8 @@ int learn_state_type_as_a_recorder() {
     if (!eventually([&] { return locked([&] { return recorder.built.count(state_type) > 0; }); }, 15s)) {
       result = 3;
     } else {
-      // The fields of StudyState.msg.
-      result = locked([&] { return recorder.built[state_type]->get_members_count(); }) == 24u ? 0 : 4;
+      // The fields of StudyState.msg: 24, and the robot's legs and search space appended (5 parallel arrays).
+      result = locked([&] { return recorder.built[state_type]->get_members_count(); }) == 29u ? 0 : 4;
     }
   }
   participant->delete_contained_entities();

@@ -327,7 +327,19 @@ TEST(Convert, EveryDomainValueSurvivesTheWire) {
   st.has_recommendation = true;
   st.recommendation = domain::Recommendation{4, 2.7, {{"frequency", 1.1}}};
   st.message = "waiting";
-  EXPECT_EQ(domain::to_json(from_wire(to_wire(st))), domain::to_json(st));
+  // A hexapod's legs and its own search space cross by name (issue 31): what a viewer names its values by.
+  st.leg_names = {"L1", "R1", "L2", "R2", "L3", "R3"};
+  st.search_space = {{"hip_amplitude", 0.1, 0.45, false, "rad"}, {"overswing", 0.0, 0.5, false, "1"}};
+  const domain::StudyState sb = from_wire(to_wire(st));
+  EXPECT_EQ(sb.leg_names, st.leg_names);
+  ASSERT_EQ(sb.search_space.size(), 2u);
+  EXPECT_EQ(sb.search_space[0].unit, "rad");
+  EXPECT_DOUBLE_EQ(sb.search_space[0].high, 0.45);
+  EXPECT_EQ(domain::to_json(sb), domain::to_json(st));
+  domain::TrialRecord record;
+  record.report = r;
+  record.leg_names = st.leg_names;
+  EXPECT_EQ(from_wire(to_wire(record)).leg_names, st.leg_names);
 }
 
 TEST(Convert, AWorkerIdBelongsToItsCertificatesCommonNameOrItsInstances) {

@@ -86,6 +86,48 @@ TEST(DashboardSnapshot, StudiesNewestFirstAndEachWorkerWithWhatItLastReported) {
   EXPECT_TRUE(s["workers"][2]["last_trial"].is_null());
 }
 
+// A hexapod's study as an optimizer publishes it: its six legs and its own search space in the state, the
+// energy of each of six legs in its reports.
+TEST(DashboardSnapshot, AHexapodsStudyNamesItsSixLegsAndItsOwnParametersInTheirOrder) {
+  const json legs = {"L1", "R1", "L2", "R2", "L3", "R3"};
+  DomainView v;
+  v.states[4] = {{"study_id", 4},
+                 {"state", "running"},
+                 {"best_trial", 1},
+                 {"recommended_trial", 2},
+                 {"legs", legs},
+                 {"search_space", json::parse(R"([{"name": "overswing", "low": 0, "high": 0.5, "unit": "1"},
+                                                   {"name": "frequency", "low": 0.5, "high": 2, "unit": "Hz"}])")}};
+  for (int trial = 1; trial <= 2; ++trial) {
+    json r = record(4, trial, 0.5, true, false, "w");
+    json hips = json::array(), knees = json::array();
+    for (int leg = 0; leg < 6; ++leg) {
+      hips.push_back({{"positive_work_j", 10 * trial + leg}, {"electrical_j", 30.0}});
+      knees.push_back({{"positive_work_j", 20 * trial + leg}, {"electrical_j", 40.0}});
+    }
+    r["report"]["energy"]["joints"] = {{"hip", hips}, {"knee", knees}};
+    r["legs"] = legs;
+    v.trials[4].push_back(r);
+  }
+  const json s = snapshot_json(v)["studies"][0];
+  EXPECT_EQ(s["parameters"], json::parse(R"(["overswing", "frequency"])")) << "the search space's order";
+  EXPECT_EQ(s["legs"], legs);
+  ASSERT_TRUE(s["leg_energy"].is_object());
+  EXPECT_EQ(s["leg_energy"]["trial_id"], 2) << "the recommended trial's, not the best single rollout's";
+  ASSERT_EQ(s["leg_energy"]["legs"].size(), 6u);
+  EXPECT_EQ(s["leg_energy"]["legs"][4]["leg"], "L3");
+  EXPECT_EQ(s["leg_energy"]["legs"][4]["hip_positive_work_j"], 24);
+  EXPECT_EQ(s["leg_energy"]["legs"][5]["knee_positive_work_j"], 45);
+  const std::string text = s.dump();
+  for (const char* morti : {"\"FL\"", "\"FR\"", "\"HL\"", "\"HR\""}) {
+    EXPECT_EQ(text.find(morti), std::string::npos) << morti << " in " << text;
+  }
+  // An optimizer from before legs were published: no names, so no per-leg values under guessed ones.
+  v.states[4].erase("legs");
+  for (json& r : v.trials[4]) r.erase("legs");
+  EXPECT_TRUE(snapshot_json(v)["studies"][0]["leg_energy"].is_null());
+}
+
 TEST(SnapshotFeed, OnlyAChangedTextIsANewVersionAndCloseWakesWaiters) {
   SnapshotFeed feed;
   feed.publish("a");

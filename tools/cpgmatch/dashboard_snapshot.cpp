@@ -15,6 +15,58 @@ json field(const json& object, const char* key) {
   return object.is_object() && object.contains(key) ? object.at(key) : json(nullptr);
 }
 
+// The study's legs by name: its state's (an optimizer that publishes them), else its trial records' (the
+// same names), else none (an older optimizer's: the page then names none).
+json legs_of(const json& state, const std::vector<json>& records) {
+  const json legs = field(state, "legs");
+  if (legs.is_array() && !legs.empty()) return legs;
+  for (const json& record : records) {
+    const json from_record = field(record, "legs");
+    if (from_record.is_array() && !from_record.empty()) return from_record;
+  }
+  return json::array();
+}
+
+// The searched parameters in the search space's order (the robot's); from an optimizer that does not publish
+// its space, every name the trials carry, sorted.
+json parameters_of(const json& state, const std::set<std::string>& from_trials) {
+  json names = json::array();
+  const json space = field(state, "search_space");
+  if (space.is_array()) {
+    for (const json& axis : space) {
+      if (field(axis, "name").is_string()) names.push_back(axis.at("name"));
+    }
+  }
+  return names.empty() ? json(from_trials) : names;
+}
+
+// The answer's energy per leg (the recommended trial, else the best one), each leg under its name: only this
+// one trial's, since every trial's would make each update several times larger.
+json answer_leg_energy(const json& state, const std::vector<json>& records, const json& legs) {
+  const json recommended = field(state, "recommended_trial");
+  const json best = field(state, "best_trial");
+  const json& trial = recommended.is_number() ? recommended : best;
+  if (!trial.is_number()) return nullptr;
+  for (const json& record : records) {
+    if (field(record, "trial_id") != trial) continue;
+    const json joints = field(field(field(record, "report"), "energy"), "joints");
+    const json hips = field(joints, "hip"), knees = field(joints, "knee");
+    if (!hips.is_array() || !knees.is_array() || hips.size() != knees.size() || hips.size() != legs.size()) {
+      return nullptr;  // not measured, or not nameable: nothing rather than a value under the wrong leg
+    }
+    json out = json::array();
+    for (std::size_t leg = 0; leg < legs.size(); ++leg) {
+      out.push_back({{"leg", legs[leg]},
+                     {"hip_positive_work_j", field(hips[leg], "positive_work_j")},
+                     {"knee_positive_work_j", field(knees[leg], "positive_work_j")},
+                     {"hip_electrical_j", field(hips[leg], "electrical_j")},
+                     {"knee_electrical_j", field(knees[leg], "electrical_j")}});
+    }
+    return {{"trial_id", trial}, {"recommended", recommended.is_number()}, {"legs", out}};
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 json trial_summary(const json& record) {
@@ -49,16 +101,20 @@ json snapshot_json(const DomainView& view) {
     const int study_id = it->first;
     std::vector<json> summaries;
     std::set<std::string> parameters;
-    if (const auto found = view.trials.find(study_id); found != view.trials.end()) {
-      for (const json& record : found->second) {
-        summaries.push_back(trial_summary(record));
-        for (const auto& [name, value] : summaries.back()["params"].items()) parameters.insert(name);
-      }
+    static const std::vector<json> kNoRecords;
+    const auto found = view.trials.find(study_id);
+    const std::vector<json>& records = found != view.trials.end() ? found->second : kNoRecords;
+    for (const json& record : records) {
+      summaries.push_back(trial_summary(record));
+      for (const auto& [name, value] : summaries.back()["params"].items()) parameters.insert(name);
     }
+    const json legs = legs_of(it->second, records);
     studies.push_back({{"state", it->second},
                        {"trials", summaries},
                        {"current_minimum", current_minimum(summaries)},
-                       {"parameters", parameters}});
+                       {"parameters", parameters_of(it->second, parameters)},
+                       {"legs", legs},
+                       {"leg_energy", answer_leg_energy(it->second, records, legs)}});
   }
   // What each worker last reported, from the trial records: a worker's announcement says how busy it is, not
   // with what, and the optimizer's candidates, which say it, are not for a viewer to read (make-study-pki.sh).

@@ -29,9 +29,13 @@ nlohmann::json trial_summary(const nlohmann::json& record);
 // evaluation that could not run has no cost). The same rule as Fig. 5a (analysis::current_minimum).
 nlohmann::json current_minimum(const std::vector<nlohmann::json>& summaries);
 
-// {"domain", "optimizer_heard", "studies": [{"state", "trials", "current_minimum", "parameters"}],
+// {"domain", "optimizer_heard", "studies": [{"state", "trials", "current_minimum", "parameters", "legs",
+//  "leg_energy"}],
 //  "workers": [{..announcement.., "last_trial": {"study_id", "trial_id", "outcome"} or null}]}
-// Studies newest first (the one a user just submitted is on top); workers by id.
+// Studies newest first (the one a user just submitted is on top); workers by id. "parameters": the searched
+// names in the study's search space's order (its state's search_space), "legs": its robot's legs by name,
+// "leg_energy": {"trial_id", "recommended", "legs": [{"leg", hip/knee positive work and electrical energy,
+// J}]} of the answer's trial, or null (not measured yet, or an older optimizer's that names no legs).
 nlohmann::json snapshot_json(const DomainView& view);
 
 }  // namespace cpgmatch::cli::dashboard

@@ -1,6 +1,7 @@
 #include "study_report.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -8,6 +9,8 @@
 #include <fmt/chrono.h>
 #include <fmt/format.h>
 
+#include "cpgmatch/analysis/stored_study_trials.hpp"
+#include "cpgmatch/analysis/study_export.hpp"
 #include "cpgmatch/runtime/version.hpp"
 #include "report_html.hpp"
 
@@ -23,13 +26,35 @@ const std::vector<std::pair<const char*, const char*>> kFigures = {
     {"fig5b", "Fig. 5b: every cost term per rollout, log scale (falls above, terms below the axis' floor below)"},
     {"fig6", "Fig. 6: normalised torque of the rollouts that walked, sorted by cost, falls shaded"},
     {"fig6_cot", "electrical cost of transport of the same rollouts, in Fig. 6's order"},
-    {"fig4", "Fig. 4: the recommended gait over the last 4 s of one rollout: the legs' coupled phases, FL's hip and knee "
-             "with stance shaded, and the feedback of FL and FR"},
+    {"fig4", ""},  // fig4_caption: it names the robot's legs
     {"param_slices", "each parameter against cost, with the GP's partial dependence"},
     {"param_importance", "parameter importance from the GP's length scales"},
     {"param_parallel", "the parameters of every trial as parallel coordinates, coloured by cost"},
     {"sim2real", "simulation against hardware rollouts of the same parameters"},
 };
+
+// The rollout whose energy per leg the report shows: the answer (the recommendation, else the lowest cost).
+std::pair<int, std::string> answer_rollout(const analysis::ScienceReport& r) {
+  if (r.recommendation) return {r.recommendation->rollout, fmt::format("rollout {} (recommended)", r.recommendation->rollout)};
+  return {r.best_rollout, fmt::format("rollout {} (lowest cost)", r.best_rollout)};
+}
+
+std::vector<ReportLegEnergy> leg_energy_of_rollout(const study::StoredStudy& stored, int rollout,
+                                                  const std::vector<std::string>& legs) {
+  std::vector<ReportLegEnergy> out;
+  for (const auto& t : stored.trials) {
+    if (t.trial_id != rollout - 1 || t.status != study::TrialStatus::kDone) continue;  // rollout = trial id + 1
+    for (const auto& leg : analysis::leg_energy_of(t.report, legs)) {
+      const auto value = [&](const char* key) {
+        const auto& v = leg.values[key];
+        return v.is_number() ? v.get<double>() : std::nan("");
+      };
+      out.push_back({leg.leg, value("hip_positive_work_j"), value("knee_positive_work_j"), value("hip_electrical_j"),
+                     value("knee_electrical_j")});
+    }
+  }
+  return out;
+}
 
 std::string read_bytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -79,8 +104,14 @@ fs::path write_study_report(const fs::path& dir, const StudyAnalysis& a, const s
   c.science_table = analysis::format_table(r);
   c.sim2real_text = a.sim2real_text;
   c.report = a.json;
+  for (const auto& d : a.config.space.dimensions()) c.parameters.push_back({d.name, d.unit, d.low, d.high});
+  c.legs = analysis::stored_study_leg_names(stored);
+  const auto [rollout, rollout_words] = answer_rollout(r);
+  c.leg_energy_rollout = rollout_words;
+  if (rollout > 0) c.leg_energy = leg_energy_of_rollout(stored, rollout, c.legs);
   for (const auto& [stem, caption] : kFigures) {
-    c.figures.push_back({stem, caption, read_bytes(dir / (std::string(stem) + ".png"))});
+    const std::string words = std::string(stem) == "fig4" ? fig4_caption(c.legs) : std::string(caption);
+    c.figures.push_back({stem, words, read_bytes(dir / (std::string(stem) + ".png"))});
   }
   c.not_drawn = figures.not_drawn;
   for (const std::string& failure : figures.failed) c.not_drawn.push_back("failed: " + failure);

@@ -96,6 +96,23 @@ std::map<std::string, double> from_wire(const std::vector<msg::ParameterValue>& 
   return out;
 }
 
+namespace {
+
+using WireName = eprosima::fastrtps::fixed_string<32>;
+
+std::vector<WireName> names_to_wire(const std::vector<std::string>& names, std::size_t most, const char* what) {
+  if (names.size() > most) throw WireError(fmt::format("{} {}: a sample carries at most {}", names.size(), what, most));
+  return {names.begin(), names.end()};
+}
+
+std::vector<std::string> names_from_wire(const std::vector<WireName>& names) {
+  std::vector<std::string> out;
+  for (const auto& n : names) out.push_back(text(n));
+  return out;
+}
+
+}  // namespace
+
 msg::RolloutOutcome to_wire(domain::Outcome o) {
   switch (o) {
     case domain::Outcome::kCompleted: return msg::OUTCOME_COMPLETED;
@@ -440,6 +457,17 @@ msg::StudyState to_wire(const domain::StudyState& s) {
     w.recommended_predicted_cost(s.recommendation.predicted_cost);
     w.recommended_params(to_wire(s.recommendation.params));
   }
+  w.leg_names(names_to_wire(s.leg_names, kMaxLegs, "legs"));
+  if (s.search_space.size() > 32) throw WireError(fmt::format("{} searched parameters: a state carries at most 32", s.search_space.size()));
+  for (const domain::SearchAxis& a : s.search_space) {
+    msg::SearchDimension d;
+    d.name(a.name);
+    d.low(a.low);
+    d.high(a.high);
+    d.log_scale(a.log_scale);
+    d.unit(a.unit);
+    w.search_space().push_back(d);
+  }
   return w;
 }
 
@@ -469,6 +497,10 @@ domain::StudyState from_wire(const msg::StudyState& w) {
     s.recommendation.predicted_cost = w.recommended_predicted_cost();
     s.recommendation.params = from_wire(w.recommended_params());
   }
+  s.leg_names = names_from_wire(w.leg_names());
+  for (const msg::SearchDimension& d : w.search_space()) {
+    s.search_space.push_back({text(d.name()), d.low(), d.high(), d.log_scale(), text(d.unit())});
+  }
   return s;
 }
 
@@ -480,6 +512,7 @@ msg::TrialRecord to_wire(const domain::TrialRecord& t) {
   w.parameters(to_wire(t.parameters));
   w.report(to_wire(t.report));
   w.enqueued(t.enqueued);
+  w.leg_names(names_to_wire(t.leg_names, kMaxLegs, "legs"));
   return w;
 }
 
@@ -491,6 +524,7 @@ domain::TrialRecord from_wire(const msg::TrialRecord& w) {
   t.parameters = from_wire(w.parameters());
   t.report = from_wire(w.report());
   t.enqueued = w.enqueued();
+  t.leg_names = names_from_wire(w.leg_names());
   return t;
 }
 

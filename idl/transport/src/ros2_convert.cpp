@@ -1,5 +1,6 @@
 #include "cpgmatch/dds/ros2_convert.hpp"
 
+#include <cmath>
 #include <stdexcept>
 #include <vector>
 
@@ -24,6 +25,17 @@ void set_parameters(const std::map<std::string, double>& named, Msg& out,
   }
   (out.*names)(n);
   (out.*values)(v);
+}
+
+using RosName = eprosima::fastrtps::fixed_string<32>;
+
+std::vector<RosName> ros_names(const std::vector<std::string>& names) { return {names.begin(), names.end()}; }
+
+// One value of every leg's joint energy (the robot's leg order).
+std::vector<double> per_leg(const PerLeg<JointEnergy>& joints, double JointEnergy::*value) {
+  std::vector<double> out;
+  for (const JointEnergy& j : joints) out.push_back(j.*value);
+  return out;
 }
 
 std::uint8_t ros_kind(domain::WorkerKind kind) {
@@ -84,6 +96,13 @@ ros::StudyState_ to_ros(const domain::StudyState& s) {
   out.recommended_predicted_cost_(s.recommendation.predicted_cost);
   set_parameters(s.recommendation.params, out, &ros::StudyState_::recommended_param_names_,
                  &ros::StudyState_::recommended_param_values_);
+  out.leg_names_(ros_names(s.leg_names));
+  for (const domain::SearchAxis& a : s.search_space) {
+    out.search_names_().emplace_back(a.name);
+    out.search_units_().emplace_back(a.unit.empty() ? std::string("1") : a.unit);
+    out.search_low_().push_back(a.low);
+    out.search_high_().push_back(a.high);
+  }
   return out;
 }
 
@@ -120,6 +139,17 @@ ros::TrialRecord_ to_ros(const domain::TrialRecord& t) {
   out.electrical_j_(m.energy.electrical_j);
   out.mechanical_cost_of_transport_(m.energy.mechanical_cost_of_transport);
   out.wall_time_s_(r.wall_time_s);
+  // Every leg of the study's robot by name; a report without energy per leg (a rollout that did not run, a
+  // synthetic one) has NaN for each, never a leg's value under another leg's name.
+  out.leg_names_(ros_names(t.leg_names));
+  const bool measured = m.energy.hip.size() == t.leg_names.size() && m.energy.knee.size() == t.leg_names.size();
+  const auto values = [&](const PerLeg<JointEnergy>& joints, double JointEnergy::*value) {
+    return measured ? per_leg(joints, value) : std::vector<double>(t.leg_names.size(), std::nan(""));
+  };
+  out.leg_hip_positive_work_j_(values(m.energy.hip, &JointEnergy::positive_work_j));
+  out.leg_knee_positive_work_j_(values(m.energy.knee, &JointEnergy::positive_work_j));
+  out.leg_hip_electrical_j_(values(m.energy.hip, &JointEnergy::electrical_j));
+  out.leg_knee_electrical_j_(values(m.energy.knee, &JointEnergy::electrical_j));
   return out;
 }
 

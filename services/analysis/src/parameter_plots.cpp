@@ -86,6 +86,11 @@ std::vector<const Trial*> rollouts_that_ran(const StudyTrials& s) {
   return ran;
 }
 
+// A parameter's axis label: its name and, when it has one, its unit (the study's space's: a robot's own).
+std::string axis_label(const SearchDimension& d, const char* separator) {
+  return d.unit.empty() || d.unit == "1" ? d.name : fmt::format("{}{}({})", d.name, separator, d.unit);
+}
+
 double param(const Trial& t, const SearchDimension& d) {
   const auto it = t.params.find(d.name);
   return it == t.params.end() ? std::nan("") : it->second;
@@ -135,7 +140,7 @@ FigureScript slices(const StudyTrials& s, const std::vector<SearchDimension>& di
   const std::string d = gnuplot_quote(data);
   for (std::size_t j = 0; j < dims.size(); ++j) {
     const int c = static_cast<int>(j) + 5;  // the parameter's column
-    f.body += fmt::format("set xlabel '{}'\nset xrange [{}:{}]\nset ylabel '{}'\n", dims[j].name, num(dims[j].low),
+    f.body += fmt::format("set xlabel '{}'\nset xrange [{}:{}]\nset ylabel '{}'\n", axis_label(dims[j], " "), num(dims[j].low),
                           num(dims[j].high), j % static_cast<std::size_t>(cols) == 0 ? "cost J" : "");
     if (dims[j].log_scale) f.body += "set logscale x\n";
     f.body += fmt::format("plot {} u {}:($2==0?$3:1/0):1 w p pt 7 ps 0.7 lc palette, '' u {}:($2==1?$3:1/0) w p pt 2 ps 1 lw 2 lc rgb '{}'",
@@ -213,13 +218,15 @@ FigureScript parallel(const StudyTrials& s, const std::vector<SearchDimension>& 
       "set palette defined {}\n{}set cbrange [{}:{}]\nset cblabel 'cost J{}'\n"
       "set title \"Parallel coordinates (study {}): every rollout from its parameters to its cost\\n"
       "colour: cost, dark = low{}\"\n"
-      "set border 0\nunset ytics\nset key off\nset xrange [0.8:{}.2]\nset xtics (",
+      // Room below the axes for a second label line (a parameter's unit).
+      "set border 0\nunset ytics\nset key off\nset bmargin 4\nset xrange [0.8:{}.2]\nset xtics (",
       axis.band() ? fmt::format("(0 '#08306b', 0.88 '#c6dbef', 0.9 '{}', 1 '{}')", kFallColour, kFallColour)
                   : std::string("(0 '#08306b', 1 '#c6dbef')"),
       log_colour ? "set logscale cb\n" : "", num(axis.lowest), num(cb_top),
       fmt::format("{}{}", log_colour ? ", log colour scale" : "", axis.band() ? "; red: fell" : ""), s.name,
       axis.band() ? "; red: fell (on the cost axis at the top, not to scale)" : "", n + 1);
-  for (std::size_t j = 0; j < n; ++j) f.body += fmt::format("'{}' {}, ", dims[j].name, j + 1);
+  // The unit under the name (double quotes: gnuplot reads \n in them as a line break).
+  for (std::size_t j = 0; j < n; ++j) f.body += fmt::format("\"{}\" {}, ", axis_label(dims[j], "\\n"), j + 1);
   f.body += fmt::format("'cost J' {})\n", n + 1);
   if (log_colour) {  // gnuplot's log tics are decades: too few over one or two of them
     std::string tics;

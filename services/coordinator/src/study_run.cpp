@@ -158,6 +158,7 @@ domain::TrialRecord StudyRun::trial_record(int trial_id, const Eigen::VectorXd& 
   t.report = r;
   t.report.id.study_id = id;
   t.report.id.trial_id = trial_id;
+  if (spec) t.leg_names = spec->rollout_settings().controller.legs.names;
   return t;
 }
 
@@ -195,6 +196,12 @@ domain::StudyState StudyRun::state_sample(int workers, double wall_now_s, double
   st.message = message;
   // With a hardware model the answer is the hardware posterior's best hardware trial (none before the first
   // hardware result): what the robot should run, not what the simulation liked.
+  // The robot's legs and the search space, so that a viewer names per-leg and per-parameter values as the
+  // study does (a hexapod's L1 .. R3, its own parameters and units), never by Morti's.
+  if (spec) st.leg_names = spec->rollout_settings().controller.legs.names;
+  for (const bo::Dimension& d : config.space.dimensions()) {
+    st.search_space.push_back({d.name, d.low, d.high, d.log_scale, d.unit});
+  }
   const ModelSnapshot& answer = models_hardware() ? hardware_model : model;
   if (answer.has_recommendation) {
     st.has_recommendation = true;

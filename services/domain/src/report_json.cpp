@@ -17,6 +17,14 @@ nlohmann::json params_json(const std::map<std::string, double>& named) {
   return j;
 }
 
+nlohmann::json search_space_json(const std::vector<SearchAxis>& space) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const SearchAxis& a : space) {
+    out.push_back({{"name", a.name}, {"low", a.low}, {"high", a.high}, {"log", a.log_scale}, {"unit", a.unit}});
+  }
+  return out;
+}
+
 double number_or_nan(const nlohmann::json& j, const char* key) {
   return j.is_object() && j.contains(key) && j.at(key).is_number() ? j.at(key).get<double>() : std::nan("");
 }
@@ -196,7 +204,9 @@ nlohmann::json to_json(const StudyState& s) {
           {"best_speed_mps", number(s.best_speed_mps)},
           {"elapsed_s", number(s.elapsed_s)},
           {"rollouts_per_s", number(s.rollouts_per_s)},
-          {"message", s.message}};
+          {"message", s.message},
+          {"legs", s.leg_names},
+          {"search_space", search_space_json(s.search_space)}};
 }
 
 nlohmann::json to_json(const WorkerAnnouncement& w) {
@@ -212,7 +222,8 @@ nlohmann::json to_json(const TrialRecord& t) {
           {"initial", t.initial},
           {"enqueued", t.enqueued},
           {"params", params_json(t.parameters)},
-          {"report", to_json(t.report)}};
+          {"report", to_json(t.report)},
+          {"legs", t.leg_names}};
 }
 
 }  // namespace cpgmatch::domain

@@ -127,8 +127,19 @@ function wrap(name) {
   return lines;
 }
 
+// The study's search space by name (its robot's names, bounds and units); {} from an older optimizer.
+function axes(study) {
+  const out = {};
+  for (const a of study.state.search_space || []) out[a.name] = a;
+  return out;
+}
+
+// A unit as the page prints it: a dimensionless parameter is a fraction of a cycle.
+function unitText(unit) { return !unit || unit === '1' ? 'fraction' : unit; }
+
 function drawParameters(study) {
   const names = study.parameters;
+  const space = axes(study);
   const ran = study.trials.filter(t => t.ok && t.cost !== null && t.params);
   const key = `${study.state.study_id}:${ran.length}`;
   if (charts['chart-params'] && charts['chart-params'].$key === key) return;  // redrawn only for new trials
@@ -149,7 +160,9 @@ function drawParameters(study) {
       scales: { y: { min: 0, max: 1, ticks: { callback: v => (v === 0 ? 'min' : v === 1 ? 'max' : '') } },
                 x: { ticks: { autoSkip: false, maxRotation: 0 } } } },
   });
-  c.data.labels = names.map((n, i) => [...wrap(n), `${num(range[i][0], 3)} .. ${num(range[i][1], 3)}`]);
+  // Name, the range tried, and the unit on a line of its own (the axes' labels sit side by side).
+  c.data.labels = names.map((n, i) => [...wrap(n), `${num(range[i][0], 3)} .. ${num(range[i][1], 3)}`,
+    ...(space[n] ? [unitText(space[n].unit)] : [])]);
   c.data.datasets = order.map(t => ({
     data: names.map((n, i) => (range[i][1] > range[i][0] ? (t.params[n] - range[i][0]) / (range[i][1] - range[i][0]) : 0.5)),
     borderColor: t.fell ? 'rgba(120,120,120,0.45)' : ramp(hi > lo ? (t.cost - lo) / (hi - lo) : 0),
@@ -158,7 +171,8 @@ function drawParameters(study) {
   c.update('none');
 }
 
-function drawGait(state) {
+function drawGait(study) {
+  const state = study.state;
   const title = document.getElementById('gait-title');
   const body = document.querySelector('#gait tbody');
   body.replaceChildren();
@@ -167,14 +181,48 @@ function drawGait(state) {
     ? `Recommended gait: trial ${state.recommended_trial} (GP posterior mean ${num(state.recommended_predicted_cost)})`
     : state.best_trial !== null ? `Best rollout so far: trial ${state.best_trial} (no GP recommendation yet)`
     : 'Recommended gait: none yet (no rollout has run)';
-  const names = Object.keys(rec || best || {}).sort();
+  // The search space's order (the study's own parameters), then any other name a gait carries.
+  const space = axes(study);
+  const given = Object.keys(rec || best || {});
+  const names = [...study.parameters.filter(n => given.includes(n)), ...given.filter(n => !study.parameters.includes(n)).sort()];
   for (const n of names) {
-    body.append(el('tr', {}, el('td', {}, n), el('td', { class: 'num' }, num(rec ? rec[n] : null)),
+    body.append(el('tr', {}, el('td', {}, n), el('td', {}, space[n] ? unitText(space[n].unit) : Object.keys(space).length ? 'fixed' : ''),
+                   el('td', { class: 'num' }, num(rec ? rec[n] : null)),
                    el('td', { class: 'num' }, num(best ? best[n] : null))));
   }
-  if (best) body.append(el('tr', {}, el('td', {}, 'cost'),
+  if (best) body.append(el('tr', {}, el('td', {}, 'cost'), el('td', {}, ''),
                                       el('td', { class: 'num' }, rec ? `${num(state.recommended_predicted_cost)} (GP mean)` : '-'),
                                       el('td', { class: 'num' }, `${num(state.best_cost)} (trial ${state.best_trial})`)));
+}
+
+// The answer trial's energy per leg, each leg under the robot's own name (any number of legs).
+function drawLegs(study) {
+  const legs = study.legs || [];
+  const energy = study.leg_energy;
+  document.getElementById('legs-title').textContent = legs.length
+    ? `Legs: ${legs.length} (${legs.join(' ')})` + (energy ? ` · energy per leg of trial ${energy.trial_id} (${energy.recommended ? 'recommended' : 'best'})` : ' · no energy per leg measured yet')
+    : 'Legs: not published by this optimizer';
+  const body = document.querySelector('#legs tbody');
+  body.replaceChildren();
+  for (const l of energy ? energy.legs : []) {
+    body.append(el('tr', { dataset: { leg: l.leg } }, el('td', {}, l.leg),
+      el('td', { class: 'num' }, num(l.hip_positive_work_j)), el('td', { class: 'num' }, num(l.knee_positive_work_j)),
+      el('td', { class: 'num' }, num(l.hip_electrical_j)), el('td', { class: 'num' }, num(l.knee_electrical_j))));
+  }
+  if (typeof Chart === 'undefined') return;
+  const c = chart('chart-legs', {
+    type: 'bar',
+    data: { labels: [], datasets: [
+      { label: 'hip positive work (J)', data: [], backgroundColor: '#2563a8' },
+      { label: 'knee positive work (J)', data: [], backgroundColor: '#e07b39' }] },
+    options: { animation: false, maintainAspectRatio: false,
+      scales: { x: { title: { display: true, text: 'leg' } }, y: { beginAtZero: true, title: { display: true, text: 'J' } } } },
+  });
+  const rows = energy ? energy.legs : [];
+  c.data.labels = rows.map(l => l.leg);
+  c.data.datasets[0].data = rows.map(l => l.hip_positive_work_j);
+  c.data.datasets[1].data = rows.map(l => l.knee_positive_work_j);
+  c.update('none');
 }
 
 function drawDetail(study) {
@@ -187,11 +235,12 @@ function drawDetail(study) {
   const message = document.getElementById('detail-message');
   message.hidden = !s.message;
   message.textContent = s.message || '';
+  drawLegs(study);  // its table works without Chart.js
   if (typeof Chart === 'undefined') return;  // the tables still work without Chart.js
   drawCost(study);
   drawTerms(study);
   drawParameters(study);
-  drawGait(s);
+  drawGait(study);
 }
 
 function drawWorkers(workers) {

@@ -60,7 +60,7 @@ std::vector<std::string> write_optuna_journal(const std::vector<ExportedStudy>& 
     out << log_line(kCreateStudy, {{"study_name", name}, {"directions", {kMinimize}}}).dump() << '\n';
     const Json attributes = {{"cpgmatch_study_id", s.study_id}, {"cpgmatch_state", s.state},
                              {"cpgmatch_message", s.message}, {"cpgmatch_spec_sha256", s.spec_sha256},
-                             {"cpgmatch_fixed_parameters", Json(s.fixed)}};
+                             {"cpgmatch_fixed_parameters", Json(s.fixed)}, {"cpgmatch_legs", Json(s.legs)}};
     for (const auto& item : attributes.items()) {
       out << log_line(kSetStudyUserAttr, {{"study_id", journal_id}, {"user_attr", {{item.key(), item.value()}}}}).dump() << '\n';
     }
@@ -75,6 +75,10 @@ std::vector<std::string> write_optuna_journal(const std::vector<ExportedStudy>& 
       Json user_attrs = Json::object();
       for (const auto& item : t.columns.items()) {
         if (item.key() != "study_id" && item.key() != "study_name" && item.key() != "cost") user_attrs[item.key()] = item.value();
+      }
+      // Per leg by the robot's leg name, as the CSV's columns (leg_energy.L1.hip_positive_work_j).
+      for (const auto& leg : t.leg_energy) {
+        for (const auto& item : leg.values.items()) user_attrs[leg_energy_column(leg.leg, item.key())] = item.value();
       }
       const double start_s = t.issued_at_s > 0.0 ? t.issued_at_s : s.created_at_s;
       Json fields = {{"study_id", journal_id},

@@ -7,6 +7,7 @@
 
 #include "cpgmatch/bo/model_state_json.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/legs.hpp"
 #include "cpgmatch/study/study_spec.hpp"
 
 namespace cpgmatch::analysis {
@@ -19,6 +20,17 @@ study::StudyConfig stored_study_config(const study::StoredStudy& stored) {
       return study::StudySpec::from_json_text(stored.spec.json, fmt::format("study {} spec", stored.study_id)).config();
     }
     return study::load_study_config_text(stored.config_yaml, stored.source_name);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(fmt::format("the store's copy of study {} (submitted from {}) is damaged: {}",
+                                         stored.study_id, stored.source_name, e.what()));
+  }
+}
+
+std::vector<std::string> stored_study_leg_names(const study::StoredStudy& stored) {
+  if (stored.spec.json.empty()) return LegLayout::quadruped().names;  // before specs, every study was Morti's
+  try {
+    const auto spec = study::StudySpec::from_json_text(stored.spec.json, fmt::format("study {} spec", stored.study_id));
+    return spec.rollout_settings().controller.legs.names;
   } catch (const std::exception& e) {
     throw std::runtime_error(fmt::format("the store's copy of study {} (submitted from {}) is damaged: {}",
                                          stored.study_id, stored.source_name, e.what()));
@@ -47,7 +59,7 @@ StudyTrials trials_from_stored_study(const study::StoredStudy& stored) {
   s.seed = cfg.optimizer.seed;
   for (const auto& d : cfg.space.dimensions()) {
     s.bounds[d.name] = {d.low, d.high};
-    s.dimensions.push_back({d.name, d.low, d.high, d.log_scale});
+    s.dimensions.push_back({d.name, d.low, d.high, d.log_scale, d.unit});
   }
   s.log_cost = cfg.optimizer.cost_transform == bo::CostTransform::kLog;
   if (!stored.model_state.is_null()) {

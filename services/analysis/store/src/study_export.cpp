@@ -1,6 +1,7 @@
 #include "cpgmatch/analysis/study_export.hpp"
 #include "cpgmatch/analysis/stored_study_trials.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -50,6 +51,32 @@ std::string source_of(const study::StoredTrial& t, int initial_points) {
 
 }  // namespace
 
+// A report with more legs than names (never written by cpgmatch) names the rest by number.
+std::vector<ExportedLegEnergy> leg_energy_of(const nlohmann::json& report, const std::vector<std::string>& legs) {
+  std::vector<ExportedLegEnergy> out;
+  const nlohmann::json none = nlohmann::json::object();
+  const auto member = [&](const nlohmann::json& j, const char* key) -> const nlohmann::json& {
+    return j.is_object() && j.contains(key) ? j[key] : none;
+  };
+  const nlohmann::json& joints = member(member(report, "energy"), "joints");
+  const nlohmann::json& hips = member(joints, "hip");
+  const nlohmann::json& knees = member(joints, "knee");
+  if (!hips.is_array() || !knees.is_array()) return out;
+  const std::size_t count = std::max(hips.size(), knees.size());
+  for (std::size_t leg = 0; leg < count; ++leg) {
+    ExportedLegEnergy e;
+    e.leg = leg < legs.size() ? legs[leg] : fmt::format("leg{}", leg + 1);
+    for (const auto& [joint, list] : {std::pair<const char*, const nlohmann::json*>{"hip", &hips}, {"knee", &knees}}) {
+      const nlohmann::json& values = leg < list->size() ? (*list)[leg] : none;
+      for (const char* key : {"positive_work_j", "joule_loss_j", "electrical_j", "signed_mean_torque_nm"}) {
+        e.values[fmt::format("{}_{}", joint, key)] = report_number(values, nullptr, key);
+      }
+    }
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
 ExportedStudy export_study(const study::StoredStudy& stored) {
   const study::StudyConfig cfg = stored_study_config(stored);  // a damaged text blames the store
   ExportedStudy s;
@@ -61,6 +88,7 @@ ExportedStudy export_study(const study::StoredStudy& stored) {
   s.spec_sha256 = stored.spec.sha256;
   s.parameters = cfg.space.dimensions();
   s.fixed = cfg.space.fixed();
+  s.legs = stored_study_leg_names(stored);
   for (const auto& t : stored.trials) {
     ExportedTrial row;
     const bool done = t.status == study::TrialStatus::kDone;
@@ -106,6 +134,7 @@ ExportedStudy export_study(const study::StoredStudy& stored) {
     c["reported_at"] = done ? number(t.reported_at_s) : Json(nullptr);
     c["wall_time_s"] = report_number(r, nullptr, "wall_time_s");
     c["error"] = report_text(r, "error");
+    if (done) row.leg_energy = leg_energy_of(r, s.legs);
     s.trials.push_back(std::move(row));
   }
   return s;
@@ -127,14 +156,27 @@ std::string csv_cell(const Json& v) {
 
 }  // namespace
 
+std::string leg_energy_column(const std::string& leg, const std::string& key) {
+  return fmt::format("leg_energy.{}.{}", leg, key);
+}
+
 void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
   std::vector<std::string> columns;
   std::vector<std::string> params;
   std::set<std::string> seen_params;
+  // Per-leg columns in the order of first appearance: one robot's legs in its order, then another's new ones.
+  std::vector<std::string> leg_columns;
+  std::set<std::string> seen_leg_columns;
   for (const auto& s : studies) {
     for (const auto& t : s.trials) {
       if (columns.empty()) {
         for (const auto& item : t.columns.items()) columns.push_back(item.key());
+      }
+      for (const auto& leg : t.leg_energy) {
+        for (const auto& item : leg.values.items()) {
+          const std::string name = leg_energy_column(leg.leg, item.key());
+          if (seen_leg_columns.insert(name).second) leg_columns.push_back(name);
+        }
       }
     }
     for (const auto& p : s.parameters) {
@@ -146,6 +188,7 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
   }
   for (std::size_t i = 0; i < columns.size(); ++i) out << (i ? "," : "") << columns[i];
   for (const auto& p : params) out << ",params_" << p;
+  for (const auto& l : leg_columns) out << ',' << csv_cell(Json(l));
   out << '\n';
   for (const auto& s : studies) {
     for (const auto& t : s.trials) {
@@ -155,6 +198,14 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
       for (const auto& p : params) {
         const auto it = t.params.find(p);
         out << ',' << (it == t.params.end() ? std::string() : csv_cell(Json(it->second)));
+      }
+      std::map<std::string, Json> by_column;
+      for (const auto& leg : t.leg_energy) {
+        for (const auto& item : leg.values.items()) by_column[leg_energy_column(leg.leg, item.key())] = item.value();
+      }
+      for (const auto& l : leg_columns) {
+        const auto it = by_column.find(l);
+        out << ',' << (it == by_column.end() ? std::string() : csv_cell(it->second));
       }
       out << '\n';
     }
@@ -172,6 +223,9 @@ nlohmann::ordered_json export_json(const std::vector<ExportedStudy>& studies) {
     for (const auto& t : s.trials) {
       Json row = t.columns;
       row["params"] = Json(t.params);
+      Json legs = Json::object();
+      for (const auto& leg : t.leg_energy) legs[leg.leg] = leg.values;
+      row["leg_energy"] = legs;
       trials.push_back(std::move(row));
     }
     all.push_back({{"study_id", s.study_id},
@@ -182,6 +236,7 @@ nlohmann::ordered_json export_json(const std::vector<ExportedStudy>& studies) {
                    {"spec_sha256", s.spec_sha256},
                    {"parameters", parameters},
                    {"fixed", Json(s.fixed)},
+                   {"legs", s.legs},
                    {"trials", trials}});
   }
   return {{"format", "cpgmatch-export-1"}, {"studies", all}};

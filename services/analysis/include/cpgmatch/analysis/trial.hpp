@@ -50,6 +50,7 @@ struct SearchDimension {
   double low = 0.0;
   double high = 1.0;
   bool log_scale = false;
+  std::string unit;  // SI, as the study's search space says ("rad", "Hz"); "1" or empty: dimensionless
 };
 
 struct StudyTrials {

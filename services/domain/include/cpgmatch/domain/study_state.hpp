@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "cpgmatch/domain/rollout_report.hpp"
 #include "cpgmatch/domain/study_status.hpp"
@@ -17,6 +18,15 @@ struct Recommendation {
   int trial = 0;
   double predicted_cost = std::nan("");
   std::map<std::string, double> params;
+};
+
+// One searched parameter as the study's search space defines it (the robot's names, bounds and units).
+struct SearchAxis {
+  std::string name;
+  double low = 0.0;
+  double high = 1.0;
+  bool log_scale = false;
+  std::string unit;  // SI ("rad", "Hz"); "1" or empty: dimensionless
 };
 
 struct StudyState {
@@ -40,6 +50,11 @@ struct StudyState {
   std::string message;
   bool has_recommendation = false;
   Recommendation recommendation;
+  // What a viewer needs to name the study's values: its robot's legs, in the order of every per-leg value its
+  // reports carry (Morti's FL FR HL HR, a hexapod's L1 R1 ...), and its search space in its order. Empty from
+  // an optimizer built before they were published.
+  std::vector<std::string> leg_names;
+  std::vector<SearchAxis> search_space;
 };
 
 // Every evaluated trial with its result.
@@ -50,6 +65,8 @@ struct TrialRecord {
   bool enqueued = false;  // a queued known gait (`enqueue`), not a proposal of the model
   std::map<std::string, double> parameters;  // the searched parameters, SI units
   RolloutReport report;
+  // The report's legs by name, leg by leg as its per-leg energy lists them (the study's robot's legs).
+  std::vector<std::string> leg_names;
 };
 
 // An open study's resolved spec as published for workers (study_spec.hpp): the canonical JSON and its hash.

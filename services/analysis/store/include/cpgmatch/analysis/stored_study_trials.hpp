@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "cpgmatch/analysis/trial.hpp"
 #include "cpgmatch/study/study_config.hpp"
@@ -16,6 +17,11 @@ StudyTrials trials_from_stored_study(const study::StoredStudy& stored);
 // study file's: std::runtime_error "the store's copy of study N (from FILE) is damaged: ...", never an
 // InputError that would send the user to a study file that may be fine.
 study::StudyConfig stored_study_config(const study::StoredStudy& stored);
+
+// The study's legs by name, in the order its reports list per-leg values (energy per leg, trace columns): its
+// robot's (the spec's), else Morti's FL FR HL HR (a study of Morti's model file, or a store from before specs).
+// A damaged spec is the store's damage, as in stored_study_config.
+std::vector<std::string> stored_study_leg_names(const study::StoredStudy& stored);
 
 // std::runtime_error naming every unreadable trial of the studies (StoredStudy::unreadable_trials), when
 // there is one: a reader exports or reports every trial, or none, never a silent subset.

@@ -16,6 +16,14 @@
 
 namespace cpgmatch::analysis {
 
+// What one leg's motors spent in a rollout (the report's energy, per joint of the leg), named by the robot's
+// leg: the keys hip_positive_work_j, hip_joule_loss_j, hip_electrical_j, hip_signed_mean_torque_nm and the
+// same for the knee (J, N m; null: not measured).
+struct ExportedLegEnergy {
+  std::string leg;  // FL, L1, ...: the study's robot's name for it
+  nlohmann::ordered_json values;
+};
+
 struct ExportedTrial {
   // Every column but the parameters, in the order the CSV writes them (nlohmann::ordered_json keeps it):
   // study_id, trial_id (0-based, the store's), rollout (1-based, the report's), state (done | in_flight),
@@ -23,6 +31,9 @@ struct ExportedTrial {
   // fractions, torque, speed, distance, fall time, worker, attempt, faults, issued_at/reported_at (Unix s).
   nlohmann::ordered_json columns;
   std::map<std::string, double> params;  // the optimised parameters (the fixed ones are the study's)
+  // One per leg the report measured, in the robot's leg order; none when the report has no energy (a rollout
+  // that did not run, a store from before energy).
+  std::vector<ExportedLegEnergy> leg_energy;
   bool done = false;
   bool ok = false;
   double cost = 0.0;
@@ -38,17 +49,28 @@ struct ExportedStudy {
   double created_at_s = 0.0;
   std::string spec_sha256;
   std::vector<bo::Dimension> parameters;      // the search space, in its order
+  std::vector<std::string> legs;              // the robot's legs by name, in its order (Morti's: FL FR HL HR)
   std::map<std::string, double> fixed;        // parameters held fixed by the study
   std::vector<ExportedTrial> trials;          // by trial_id: every trial the store holds (done and in flight)
 };
+
+// A stored report's energy per leg (its energy.joints.hip[i] and .knee[i], in the robot's leg order), each leg
+// named by `legs`; none when the report has no energy. The one reading for exports and report.html.
+std::vector<ExportedLegEnergy> leg_energy_of(const nlohmann::json& report, const std::vector<std::string>& legs);
+
+// A per-leg column's name, as the CSV and the Optuna journal write it: leg_energy.L1.hip_positive_work_j.
+std::string leg_energy_column(const std::string& leg, const std::string& key);
 
 // Throws InputError for a study whose stored config cannot be read (it names the study).
 ExportedStudy export_study(const study::StoredStudy& stored);
 
 // CSV: a header, then one row per trial of every study; parameter columns are `params_<name>` (as Optuna's
-// trials_dataframe names them), empty where a study has no such parameter; missing numbers are empty.
+// trials_dataframe names them), empty where a study has no such parameter; missing numbers are empty. Then the
+// per-leg columns `leg_energy.<leg>.<key>` (leg_energy.L1.hip_positive_work_j), every leg of every study's
+// robot, empty where a study has no such leg: last, so that every column before them keeps its place.
 void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out);
-// JSON: {"studies": [{study fields, "parameters": [...], "fixed": {...}, "trials": [{columns..., "params": {...}}]}]}.
+// JSON: {"studies": [{study fields, "parameters": [...], "fixed": {...}, "legs": [...], "trials": [{columns...,
+// "params": {...}, "leg_energy": {"<leg>": {...}, ...}}]}]}.
 nlohmann::ordered_json export_json(const std::vector<ExportedStudy>& studies);
 
 }  // namespace cpgmatch::analysis
