@@ -37,15 +37,9 @@ struct HardwareRunner::Impl {
 
 HardwareRunner::HardwareRunner(const HardwareRunnerOptions& options) : impl_(std::make_unique<Impl>(options)) {
   impl_->config = load_robot_config(options.robot_path);
-  // A description the Plant cannot carry is refused before the bus; so is one with another number of legs than
-  // the studies this agent runs drive (their controller is Morti's layout until a study's own robot description
-  // reaches the agent, issue 31).
+  // A description the Plant cannot carry is refused before the bus. Any number of legs: a study brings its
+  // robot's legs and gaits with its spec, and a study of another body is refused (study_robot_mismatch).
   if (auto why = impl_->config.plant_mismatch()) throw InputError(*why);
-  if (static_cast<std::size_t>(impl_->config.leg_count()) != LegLayout::quadruped().size()) {
-    throw InputError(fmt::format("{} describes {} legs; the studies this agent runs drive {} (a study's own robot "
-                                 "description does not reach the agent yet)",
-                                 options.robot_path, impl_->config.leg_count(), LegLayout::quadruped().size()));
-  }
   if (impl_->config.emulator_only && options.can_uri.rfind("socketcan:", 0) == 0) {
     throw InputError(fmt::format("{}: emulator_only: true may not drive {} (its watchdog may be slower than the 20 ms "
                                  "safety target); use the robot's own description",
@@ -69,6 +63,10 @@ std::optional<std::string> HardwareRunner::study_robot_mismatch(const RobotDescr
 }
 
 double HardwareRunner::control_rate_hz() const { return impl_->config.control_rate_hz; }
+
+std::string HardwareRunner::robot_description() const { return impl_->config.robot; }
+
+int HardwareRunner::leg_count() const { return impl_->config.leg_count(); }
 
 std::string HardwareRunner::realtime_warning() const { return impl_->realtime_warning; }
 

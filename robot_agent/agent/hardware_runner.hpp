@@ -91,6 +91,9 @@ class HardwareRunner {
   // What was refused when entering real-time mode (empty when granted); set after the first run().
   std::string realtime_warning() const;
   double control_rate_hz() const;
+  // The robot description this body is (the hardware file's `robot:`), empty when the file names none.
+  std::string robot_description() const;
+  int leg_count() const;
   // Why a study of `study_robot` may not run on this body (RobotConfig::study_robot_mismatch), or nullopt.
   std::optional<std::string> study_robot_mismatch(const RobotDescription& study_robot) const;
 

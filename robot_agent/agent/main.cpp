@@ -33,6 +33,7 @@
 #include "cpgmatch/domain/report_json.hpp"
 #include "cpgmatch/dds/security.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/robot_description_loader.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/man_pages.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
@@ -141,6 +142,19 @@ class SignalWatch {
   bool fired_ = false;
   std::thread thread_;
 };
+
+// --run-once has no study to bring the robot's legs and gaits: they come from the robot description the
+// hardware file names (a hexapod's six legs walk its default gait). A file that names none drives Morti's four.
+RolloutSettings with_robot_legs(RolloutSettings settings, const HardwareRunner& runner, const std::string& hardware_path) {
+  if (!runner.robot_description().empty()) {
+    apply_robot_legs(settings.controller, load_robot(runner.robot_description()));
+  } else if (static_cast<std::size_t>(runner.leg_count()) != settings.controller.legs.size()) {
+    throw InputError(fmt::format("{}: {} legs, and no `robot:` names the robot description whose legs and gaits "
+                                 "--run-once should walk (Morti's four otherwise)",
+                                 hardware_path, runner.leg_count()));
+  }
+  return settings;
+}
 
 int run_once(const Options& o, HardwareRunner& runner, const RolloutSettings& settings, const CpgParameters& params) {
   SignalWatch watch(runner);
@@ -382,7 +396,7 @@ int main(int argc, char** argv) {
     ro.lockstep = o.lockstep;
     ro.robot_id = o.id;
     HardwareRunner runner(ro);
-    if (o.run_once) return run_once(o, runner, settings, params);
+    if (o.run_once) return run_once(o, runner, with_robot_legs(settings, runner, o.robot_path), params);
     HardwareWorker worker(o, runner);  // each study's spec brings its settings and base parameters
     worker.run();
     return kExitOk;

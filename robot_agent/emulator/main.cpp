@@ -1,7 +1,13 @@
-// cpgmatch-robot-emulator: Morti in ODE behind the robot's motor and sensor protocol on a CAN bus, so
-// the agent runs end to end without hardware: timing, protocol, safety and all.
+// cpgmatch-robot-emulator: a robot in ODE behind its motor and sensor protocol on a CAN bus, so the agent
+// runs end to end without hardware: timing, protocol, safety and all.
 //
-//   cpgmatch-robot-emulator --can udp:127.0.0.1:47000 [--model MODEL.yaml] [--robot ROBOT.yaml]
+//   cpgmatch-robot-emulator --can udp:127.0.0.1:47000 [--model BODY] [--robot HARDWARE.yaml]
+//
+// --robot is the hardware description the agent drives (configs/robot/*.yaml: joints, CAN ids, protocols).
+// --model is the simulated body: a robot description (a shipped robot's name, its folder or its robot.yaml)
+// or a model file (configs/model/*.yaml, Morti's reality-gap scenarios). Without it, the robot description
+// the hardware file names in `robot:` (odrive-quadruped's hardware walks on odrive-quadruped's body), or
+// Morti's model file when the hardware file names none.
 //
 // Real time (default): physics steps at the model's rate against the wall clock; each motor answers its
 // command at once with its latest state, like a motor driver; the sensor nodes stream every control
@@ -15,6 +21,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 
@@ -24,13 +31,16 @@
 #include "cpgmatch/can/can_bus.hpp"
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/robot/realtime.hpp"
+#include "cpgmatch/robot_description_loader.hpp"
 #include "cpgmatch/robot/robot_config.hpp"
 #include "cpgmatch/robot/robot_device.hpp"
 #include "cpgmatch/runtime/install_layout.hpp"
 #include "cpgmatch/runtime/man_pages.hpp"
 #include "cpgmatch/runtime/shared_flags.hpp"
 #include "cpgmatch/sim/ode_plant.hpp"
+#include "cpgmatch/sim/planar_leg_model.hpp"
 #include "cpgmatch/sim/sim_rollout.hpp"
+#include "cpgmatch/yaml_reader.hpp"
 
 namespace cpgmatch::robot {
 namespace {
@@ -51,7 +61,26 @@ struct Options {
   double driver_timeout_ms = 100.0;  // the motor drivers' own command watchdog (RobotDevice::enforce_command_timeout)
 };
 
-// Dry friction added to every hip gearbox and knee bearing: a robot that is stiffer than its model.
+// Whether --model names a robot description rather than a model file: a shipped robot's name, a folder, or a
+// YAML file with the robot description's `legs:` or an overlay's `base:` (a model file has neither).
+bool names_robot_description(const std::string& body) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const bool plain_name = body.find('/') == std::string::npos && body.find('.') == std::string::npos;
+  if (fs::is_directory(body, ec) || (plain_name && !fs::exists(body, ec))) return true;
+  const YamlReader yaml = YamlReader::from_file(body);
+  return yaml.has("legs") || yaml.has("base");  // a robot.yaml or an overlay on one
+}
+
+// The body the emulator simulates (see the header comment for the choice without --model).
+sim::PlanarLegModel simulated_body(const std::string& body, const RobotConfig& hardware) {
+  if (body.empty()) {
+    return hardware.robot.empty() ? sim::load_model_file(sim::default_model_path())
+                                  : sim::planar_leg_model(load_robot(hardware.robot));
+  }
+  return names_robot_description(body) ? sim::planar_leg_model(load_robot(body)) : sim::load_model_file(body);
+}
+
 // The simulated body must have the legs the hardware description drives.
 RobotConfig checked_against(RobotConfig config, const sim::PlanarLegModel& model) {
   if (static_cast<std::size_t>(config.leg_count()) != model.leg_count()) {
@@ -61,6 +90,7 @@ RobotConfig checked_against(RobotConfig config, const sim::PlanarLegModel& model
   return config;
 }
 
+// Dry friction added to every hip gearbox and knee bearing: a robot that is stiffer than its model.
 sim::PlanarLegModel with_extra_friction(sim::PlanarLegModel model, double extra_nm) {
   model.hip_motor.coulomb_friction_nm += extra_nm;
   model.knee_joint_friction_nm += extra_nm;
@@ -71,9 +101,10 @@ class Emulator {
  public:
   explicit Emulator(const Options& o)
       : options_(o),
-        model_(with_extra_friction(sim::load_model_file(o.model_path), o.extra_friction_nm)),
+        hardware_(load_robot_config(o.robot_path)),
+        model_(with_extra_friction(simulated_body(o.model_path, hardware_), o.extra_friction_nm)),
         terrain_(sim::TerrainSpec::parse(o.terrain)),
-        config_(checked_against(load_robot_config(o.robot_path), model_)),
+        config_(checked_against(hardware_, model_)),
         bus_(can::open_can_bus(o.can_uri, can::BusRole::kDevice)),
         device_(config_, *bus_, o.imperfections) {
     reset_world();
@@ -86,12 +117,18 @@ class Emulator {
   }
 
   int run() {
-    std::fprintf(stderr, "emulator: Morti on %s, %s, terrain %s\n", options_.can_uri.c_str(),
+    std::fprintf(stderr, "emulator: %s (%zu legs, %.2f kg) on %s, %s, terrain %s\n", body_name().c_str(),
+                 model_.leg_count(), model_.total_mass_kg(), options_.can_uri.c_str(),
                  options_.lockstep ? "lockstep" : "real time", terrain_.describe().c_str());
     return options_.lockstep ? run_lockstep() : run_realtime();
   }
 
  private:
+  std::string body_name() const {
+    if (!options_.model_path.empty()) return options_.model_path;
+    return hardware_.robot.empty() ? sim::default_model_path() : "robot " + hardware_.robot;
+  }
+
   void reset_world() {
     plant_ = std::make_unique<sim::OdePlant>(model_, terrain_, options_.seed);
     device_.update(plant_->state(), 0.0);
@@ -211,6 +248,7 @@ class Emulator {
   }
 
   Options options_;
+  RobotConfig hardware_;  // as read; config_ is it once checked against the body
   sim::PlanarLegModel model_;
   sim::TerrainSpec terrain_;
   RobotConfig config_;
@@ -229,11 +267,13 @@ class Emulator {
 int main(int argc, char** argv) {
   using namespace cpgmatch;
   using namespace cpgmatch::robot;
-  CLI::App app{"cpgmatch-robot-emulator: Morti in ODE behind the robot's CAN motor and sensor protocol"};
+  CLI::App app{"cpgmatch-robot-emulator: a robot in ODE behind its CAN motor and sensor protocol"};
   Options o;
   app.add_option("--can", o.can_uri, "bus URI: udp:HOST:PORT (binds it), socketcan:IFACE or virtual:NAME")->required();
-  app.add_option("--model", o.model_path, "model YAML (default: configs/model/morti.yaml)");
-  app.add_option("--robot", o.robot_path, "robot YAML (default: configs/robot/morti.yaml)");
+  app.add_option("--model", o.model_path,
+                 "the simulated body: a robot description (shipped name, folder, robot.yaml) or a model file "
+                 "(default: the robot the hardware file names, else configs/model/morti.yaml)");
+  app.add_option("--robot", o.robot_path, "hardware description the agent drives (default: configs/robot/morti.yaml)");
   app.add_option("--terrain", o.terrain, "flat | step:H@D | rough:A | shift:H@T")->capture_default_str();
   app.add_option("--seed", o.seed, "seed of the world (rough terrain) and of the imperfections")->capture_default_str();
   app.add_flag("--lockstep", o.lockstep, "step one control period whenever every motor was commanded (no wall clock)");
@@ -259,7 +299,6 @@ int main(int argc, char** argv) {
   }
   return run_reporting_errors([&] {
     runtime::export_config_dir();  // the default model and robot YAML of an installed prefix, too
-    if (o.model_path.empty()) o.model_path = sim::default_model_path();
     if (o.robot_path.empty()) o.robot_path = default_robot_config_path();
     o.imperfections.latency_s = o.latency_ms / 1000.0;
     o.imperfections.seed = o.seed + 1;

@@ -12,6 +12,7 @@
 #include "cpgmatch/params.hpp"
 #include "cpgmatch/text.hpp"
 #include "cpgmatch/yaml_reader.hpp"
+#include "robot_overlay.hpp"
 
 namespace cpgmatch {
 namespace {
@@ -317,7 +318,9 @@ std::vector<std::string> shipped_robot_names() {
   return names;
 }
 
-RobotDescription load_robot(const std::string& name_or_path) {
+RobotDescription load_robot(const std::string& name_or_path) { return detail::load_robot_at_depth(name_or_path, 0); }
+
+RobotDescription detail::load_robot_at_depth(const std::string& name_or_path, int depth) {
   fs::path yaml_path(name_or_path);
   const bool plain_name = name_or_path.find('/') == std::string::npos && name_or_path.find('.') == std::string::npos;
   if (plain_name && !fs::exists(yaml_path)) {
@@ -334,6 +337,7 @@ RobotDescription load_robot(const std::string& name_or_path) {
   const std::string yaml_text = read_text_file(yaml_path.string(), "robot", kMaxYamlBytes);
   // The URDF's file name comes from the YAML; read it first to find it.
   const YamlReader reader = YamlReader::from_string(yaml_text, yaml_path.string());
+  if (is_robot_overlay(reader)) return load_robot_overlay(reader, yaml_path, depth);
   const std::string urdf_name = reader.require_string("urdf");
   if (urdf_name.find("..") != std::string::npos || fs::path(urdf_name).is_absolute()) {
     reader.fail("urdf", "must name a file in the robot's folder (no absolute path, no '..')");
@@ -343,11 +347,32 @@ RobotDescription load_robot(const std::string& name_or_path) {
   return parse_robot(yaml_text, yaml_path.string(), urdf_text, urdf_path.string());
 }
 
+namespace {
+
+// `links:` sets a URDF link's mass without editing the URDF (a battery, a payload, a calibrated trunk, a
+// scenario's overlay). The change is spread like the link's own mass: its centre of mass stays where the URDF
+// puts it and its inertia scales with the mass.
+void apply_link_masses(const YamlReader& links, RobotDescription& robot) {
+  links.check_keys();
+  for (const auto& entry : links.node()) {
+    const std::string name = entry.first.as<std::string>();
+    const YamlReader l = links.child(name);
+    l.reject_unknown_keys({"mass_kg"});
+    const auto link = std::find_if(robot.links.begin(), robot.links.end(), [&](const LinkDescription& k) { return k.name == name; });
+    if (link == robot.links.end()) links.fail(name, fmt::format("is not a link of {}", robot.urdf_source));
+    const double mass_kg = required_positive(l, "mass_kg");
+    for (double& inertia : link->inertia_kg_m2) inertia *= mass_kg / link->mass_kg;
+    link->mass_kg = mass_kg;
+  }
+}
+
+}  // namespace
+
 RobotDescription parse_robot(const std::string& yaml_text, const std::string& yaml_source, const std::string& urdf_text,
                              const std::string& urdf_source) {
   const YamlReader r = YamlReader::from_string(yaml_text, yaml_source);
   r.reject_unknown_keys({"name", "summary", "urdf", "planar", "legs", "motors", "drives", "parallel_springs", "contact",
-                         "foot_sensor", "simulation", "gaits", "default_gait", "presets", "search_space"});
+                         "foot_sensor", "simulation", "gaits", "default_gait", "presets", "search_space", "links"});
   refuse_todo(r.node(), yaml_source, "");
   UrdfModel urdf = parse_urdf(urdf_text, urdf_source);
   RobotDescription robot;
@@ -361,6 +386,7 @@ RobotDescription parse_robot(const std::string& yaml_text, const std::string& ya
   robot.root_link = urdf.root_link;
   robot.links = std::move(urdf.links);
   robot.joints = std::move(urdf.joints);
+  if (r.has("links")) apply_link_masses(r.child("links"), robot);
   robot.planar = r.get_bool("planar", true);
   if (!robot.planar) r.fail("planar", "false (a free-floating trunk in 3D) is not built by this version's simulation yet");
 

@@ -19,7 +19,10 @@ std::filesystem::path shipped_robots_dir();
 std::vector<std::string> shipped_robot_names();
 
 // `name_or_path`: a shipped robot's name ("morti"), a folder holding robot.yaml, or a robot.yaml path.
-// The URDF is the file robot.yaml's `urdf:` key names, relative to robot.yaml's folder.
+// The URDF is the file robot.yaml's `urdf:` key names, relative to robot.yaml's folder. The path may also be
+// an overlay, a robot.yaml with `base:` and `set:` that changes a few of another robot's values (the
+// reality-gap scenarios configs/robots/morti/scenarios/*.yaml; src/robot_overlay.hpp says how): the result is
+// that robot with those values, its yaml_text the merged robot.yaml, its URDF the base's.
 RobotDescription load_robot(const std::string& name_or_path);
 
 // The same from the two texts (a study spec carries them); the sources stand in for file names in messages.
