@@ -175,10 +175,11 @@ struct Fit {
   StudyTraces traces;
   CalibrationResult result;
   RobotDescription written;
+  double cost_at_truth = 0.0;  // what the fit's cost would be at the hardware's values: its floor with this noise
 };
 
 // Loads the store's traces, fits `value_names` on the study's robot and writes the calibrated folder DIR/out.
-Fit fit_and_write(const RobotStore& store, const std::string& value_names) {
+Fit fit_and_write(const RobotStore& store, const std::string& value_names, const std::vector<double>& truth) {
   const study::StudyStore ro(store.path(), study::kReadOnly);
   Fit fit{load_study_traces(ro, store.study(), 3.0), {}, {}};
   EXPECT_TRUE(fit.traces.robot.has_value());
@@ -187,12 +188,13 @@ Fit fit_and_write(const RobotStore& store, const std::string& value_names) {
   for (const ModelValue& v : values) options.values.push_back(&v);
   Calibration calibration(fit.traces.model, fit.traces.traces, options);
   fit.result = calibration.solve();
+  fit.cost_at_truth = calibration.cost_at(truth);
   const CalibratedRobot files = calibrated_robot(*fit.traces.robot, fit.traces.model_source, fit.result, fit.traces.sources);
   fit.written = write_calibrated_robot((store.dir() / "out").string(), files);
   for (const FittedValue& v : fit.result.values) {
-    std::printf("%s: %s %.6g -> %.6g +- %.3g %s, cost %.1f -> %.1f, %d iterations, %ld replays, %.1f s\n",
+    std::printf("%s: %s %.6g -> %.6g +- %.3g %s, cost %.1f -> %.1f (at the truth %.1f), %d iterations, %ld replays, %.1f s\n",
                 fit.traces.robot->name.c_str(), v.name.c_str(), v.initial, v.estimate, v.standard_deviation,
-                v.unit.c_str(), fit.result.cost_before, fit.result.cost_after, fit.result.iterations,
+                v.unit.c_str(), fit.result.cost_before, fit.result.cost_after, fit.cost_at_truth, fit.result.iterations,
                 fit.result.simulations, fit.result.wall_time_s);
   }
   return fit;
@@ -207,7 +209,7 @@ TEST(RobotCalibration, RecoversTheQuadrupedsKneeSpring20PercentSofter) {
   const double truth = hardware.knee_parallel_spring.stiffness_nm_per_rad;
   ASSERT_NEAR(truth, 0.8 * spec.model().knee_parallel_spring.stiffness_nm_per_rad, 1e-12);
   const RobotStore store(spec, hardware, {11, 12});
-  const Fit fit = fit_and_write(store, "knee_parallel_spring.stiffness_nm_per_rad");
+  const Fit fit = fit_and_write(store, "knee_parallel_spring.stiffness_nm_per_rad", {truth});
   ASSERT_EQ(fit.result.values.size(), 1u);
   const FittedValue& k = fit.result.values[0];
   EXPECT_EQ(fit.traces.traces.size(), 2u);
@@ -247,7 +249,7 @@ TEST(RobotCalibration, RecoversTheHexapodsHeavierTrunkInItsUrdf) {
   ASSERT_NEAR(truth, 1.2 * spec.model().trunk_mass_kg, 1e-12);
   ASSERT_EQ(spec.model().leg_count(), 6u);
   const RobotStore store(spec, hardware, {21, 22});
-  const Fit fit = fit_and_write(store, "trunk.mass_kg");
+  const Fit fit = fit_and_write(store, "trunk.mass_kg", {truth});
   const FittedValue& m = fit.result.values.at(0);
   EXPECT_EQ(fit.traces.traces.front().measured.ticks.front().legs.size(), 6u);
   EXPECT_NEAR(m.estimate, truth, 0.02 * truth) << fit.result.solver_report;
