@@ -303,6 +303,34 @@ TEST(RobotCalibration, AValueTheRobotLacksIsAnInputErrorNamingIt) {
             "motors.hip_motor.coulomb_friction_nm");
 }
 
+// Every kind of place a value lives in, rewritten at once in Morti's description (a series spring inside the
+// multi-line flow map of drives.knee, a list item's spring, a motor, contact, the foot sensor, the URDF's mass):
+// the texts build Morti's model with exactly these values and nothing else changed. No fit: given estimates.
+TEST(RobotCalibration, EveryPlaceAValueLivesIsRewritten) {
+  const study::StudySpec spec = robot_spec("morti");
+  CalibrationResult result;
+  const std::vector<std::pair<const char*, double>> estimates = {
+      {"knee_spring.stiffness_nm_per_rad", 12.5},   {"knee_spring.damping_nm_s_per_rad", 0.3},
+      {"biarticular_spring.stiffness_nm_per_rad", 3.5}, {"trunk.mass_kg", 3.25},
+      {"contact.friction", 0.55},                    {"contact.stiffness_n_per_m", 41000.0},
+      {"hip_motor.coulomb_friction_nm", 0.31},       {"hip_motor.reflected_inertia_kg_m2", 0.0045},
+      {"leg.knee_joint_friction_nm", 0.04},          {"foot_sensor.time_constant_s", 0.011}};
+  for (const auto& [name, value] : estimates) {
+    const ModelValue& v = find_model_value(name);
+    result.values.push_back({name, v.unit, v.get(spec.model()), value, 0.001, v.lower, v.upper, false});
+  }
+  const CalibratedRobot files = calibrated_robot(*spec.robot(), "morti", result, {"t"});
+  const RobotDescription back = parse_robot(files.robot_yaml, "robot.yaml", files.urdf, "robot.urdf");
+  expect_only_fitted_changed(spec.model(), sim::planar_leg_model(back), result);
+  EXPECT_EQ(back.drives.at("knee").series_spring.stiffness_nm_per_rad, 12.5);
+  EXPECT_EQ(back.motors.at("hip_motor").coulomb_friction_nm, 0.31);
+  EXPECT_EQ(back.motors.at("knee_motor").coulomb_friction_nm, spec.robot()->motors.at("knee_motor").coulomb_friction_nm);
+  // Each rewritten entry keeps its old source after the note; the untouched ones are as they were.
+  EXPECT_NE(files.robot_yaml.find("before: derived from SLIP scaling"), std::string::npos);
+  EXPECT_NE(files.robot_yaml.find("damping_n_s_per_m: {value: 450.0, source: \"assumed; critically damped"), std::string::npos);
+  EXPECT_NE(files.robot_yaml.find("# trunk.mass_kg is the URDF's: robot.urdf"), std::string::npos);
+}
+
 // Bounds for a robot: a factor of 3 around its own value where the value scales with the robot's size (the
 // hexapod's 6.6 kg trunk is outside Morti's 1.5-6 kg), Morti's range where it does not (a friction coefficient).
 TEST(RobotCalibration, BoundsAreTheRobotsOwn) {

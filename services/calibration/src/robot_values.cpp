@@ -1,5 +1,7 @@
 #include "cpgmatch/calibration/robot_values.hpp"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
