@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "cpgmatch/errors.hpp"
+#include "yaml_entry.hpp"
 
 namespace cpgmatch::calibration {
 namespace {
@@ -91,25 +92,6 @@ RobotValueSite site_in_description(const ModelValue& value, const RobotDescripti
     site.label = fmt::format("parallel_springs[{}].{}", site.yaml_path[1], site.yaml_path[2]);
   }
   return site;
-}
-
-// The node at `path`, undefined when robot.yaml leaves it out. reset() rebinds the handle; yaml-cpp's
-// operator= would overwrite the node it refers to.
-YAML::Node yaml_entry(const YAML::Node& root, const std::vector<std::string>& path) {
-  YAML::Node node;
-  node.reset(root);
-  for (const std::string& key : path) {
-    YAML::Node next;
-    if (node.IsSequence() && std::stoul(key) < node.size()) {
-      next.reset(node[std::stoul(key)]);
-    } else if (node.IsMap() && node[key]) {
-      next.reset(node[key]);
-    } else {
-      return YAML::Node(YAML::NodeType::Undefined);
-    }
-    node.reset(next);
-  }
-  return node;
 }
 
 // Values whose physical range scales with the robot: everything but a friction coefficient and the foot
