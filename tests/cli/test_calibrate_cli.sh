@@ -21,6 +21,8 @@ check "store with params file" expect_exit 2 "\-\-params-file: not with \-\-stor
   run --store "$tmp/nope.db" --study 1 --params-file "$params"
 check "unknown value" expect_exit 2 "\-\-params: 'knee_spring.stifness' is not a model value" \
   run --trace "$tmp/worn.csv" --params-file "$params" --params knee_spring.stifness
+check "a robot's value on a model file" expect_exit 2 "knee_parallel_spring.stiffness_nm_per_rad is a value of a robot's description" \
+  run --trace "$tmp/worn.csv" --params-file "$params" --params knee_parallel_spring.stiffness_nm_per_rad
 check "value twice" expect_exit 2 "named twice" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee,$knee
 check "window 0" expect_exit 2 "\-\-window" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee --window 0
 check "window nan" expect_exit 2 "\-\-window" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee --window nan

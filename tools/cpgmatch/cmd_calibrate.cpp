@@ -1,6 +1,7 @@
 // `cpgmatch calibrate`: fits model values to measured rollout traces (services/calibration) and writes the
 // calibrated model. The traces come from CSV files (`cpgmatch rollout --trace`, or a robot's) or from a
-// study's store (`--store PATH --study ID`: the hardware rollouts the robot agent sent, study_traces.hpp).
+// study's store (`--store PATH --study ID`: the hardware rollouts the robot agent sent, study_traces.hpp). A
+// study of a robot (`robot:`) is fitted on its description and written as a robot folder (calibrated_robot.hpp).
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -12,6 +13,8 @@
 
 #include "commands.hpp"
 #include "cpgmatch/calibration/calibrated_model.hpp"
+#include "cpgmatch/calibration/calibrated_robot.hpp"
+#include "cpgmatch/calibration/robot_values.hpp"
 #include "cpgmatch/calibration/calibration.hpp"
 #include "cpgmatch/calibration/study_traces.hpp"
 #include "cpgmatch/errors.hpp"
@@ -115,8 +118,11 @@ void add_calibrate_command(CLI::App& app) {
   cmd->add_option("--store", o->store, "a study store: fit the hardware traces the robot agent sent (with --study)");
   cmd->add_option("--study", o->study_id, "with --store: the study whose traces are fitted")->check(CLI::Range(1, 1 << 30));
   cmd->add_option("--params-file", o->params_file, "with --trace: the CPG parameters the traces were made with (YAML)");
-  cmd->add_option("--params", o->values, "model values to fit, comma-separated")->capture_default_str();
-  cmd->add_option("--out", o->out, "where to write the calibrated model YAML")->required();
+  cmd->add_option("--params", o->values,
+                  "model values to fit, comma-separated (a robot study's default: its knee spring and trunk mass)")
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "where to write the calibrated model YAML (a robot study: the calibrated robot's folder)")
+      ->required();
   cmd->add_option("--model", o->model_file, "start model YAML (default: configs/model/morti.yaml; with --store: the study's)");
   cmd->add_option("--settings", o->settings_file, "with --trace: rollout settings the traces were made with (default: configs/rollout.yaml)");
   cmd->add_option("--terrain", o->terrain, "the ground the traces were made on: flat | step:H@D | rough:A | shift:H@T");
@@ -138,16 +144,18 @@ void add_calibrate_command(CLI::App& app) {
       ->check(finite_in(0.01, 100.0, ""));
   cmd->add_flag("--json", o->json, "print exactly one JSON object");
   cmd->callback([o, cmd] {
-    const std::vector<const cal::ModelValue*> values = [&] {
+    const auto value_list = [&](const std::string& names) {
       try {
-        return cal::parse_model_value_list(o->values);
+        return cal::parse_model_value_list(names);
       } catch (const InputError& e) {
         throw InputError(fmt::format("--params: {}", e.what()));
       }
-    }();
+    };
+    std::vector<const cal::ModelValue*> values = value_list(o->values);
     struct Source {
       std::string model_text, model_name;
       sim::PlanarLegModel start;
+      std::optional<RobotDescription> robot;  // a robot study's: --out is then a robot folder
       std::vector<cal::CalibrationTrace> traces;
       std::vector<std::string> names;
     } source;
@@ -182,6 +190,12 @@ void add_calibrate_command(CLI::App& app) {
       source.model_name = st.model_source;
       source.model_text = st.model_yaml;
       source.start = st.model;
+      source.robot = st.robot;
+      if (!o->model_file.empty() && source.robot) {
+        throw InputError(fmt::format("--model: the study is of robot '{}', whose description is the start; to start "
+                                     "elsewhere, edit a copy of the robot's folder and study that",
+                                     source.robot->name));
+      }
       if (!o->model_file.empty()) {  // another start than the study's own model
         source.model_name = o->model_file;
         source.model_text = read_text(o->model_file);
@@ -189,6 +203,27 @@ void add_calibrate_command(CLI::App& app) {
       }
       source.traces = std::move(st.traces);
       source.names = std::move(st.sources);
+    }
+    // A robot's values, with their places in its description checked and bounds of its own (robot_values.hpp);
+    // a model file's, only those a model file has.
+    std::vector<cal::ModelValue> robot_values;
+    if (source.robot) {
+      if (cmd->count("--params") == 0) values = value_list(cal::default_robot_value_list(*source.robot));
+      try {
+        robot_values = cal::robot_model_values(values, *source.robot, source.start);
+      } catch (const InputError& e) {
+        throw InputError(fmt::format("--params: {}", e.what()));
+      }
+      values.clear();
+      for (const cal::ModelValue& v : robot_values) values.push_back(&v);
+    } else {
+      for (const cal::ModelValue* v : values) {
+        if (!v->in_model_files) {
+          throw InputError(fmt::format("--params: {} is a value of a robot's description, which a model file has not; "
+                                       "calibrate it with --store PATH --study ID of a study of the robot",
+                                       v->name));
+        }
+      }
     }
     const sim::PlanarLegModel& start = source.start;
     cal::CalibrationOptions options;
@@ -202,14 +237,23 @@ void add_calibrate_command(CLI::App& app) {
     cal::Calibration calibration(start, std::move(source.traces), options);
     if (!o->scan.empty() && !o->json) print_scan(calibration, start, values, o->scan);
     const cal::CalibrationResult result = calibration.solve();
-    const std::string text = cal::calibrated_model_text(source.model_text, source.model_name, result, source.names);
-    sim::parse_model_file(YamlReader::from_string(text, o->out));  // what is written must load
-    std::ofstream out(o->out);
-    if (!(out << text)) throw InputError(fmt::format("--out {}: cannot write", o->out));
+    std::string written = o->out;
+    if (source.robot) {
+      // A robot folder: robot.yaml and its URDF with the fitted values in place, loaded back by the loader.
+      const cal::CalibratedRobot files = cal::calibrated_robot(*source.robot, source.model_name, result, source.names);
+      cal::write_calibrated_robot(o->out, files);
+      written = fmt::format("{0}/robot.yaml and {0}/{1} (robot '{2}'; `cpgmatch robot check {0}`)", o->out, files.urdf_file,
+                            source.robot->name);
+    } else {
+      const std::string text = cal::calibrated_model_text(source.model_text, source.model_name, result, source.names);
+      sim::parse_model_file(YamlReader::from_string(text, o->out));  // what is written must load
+      std::ofstream out(o->out);
+      if (!(out << text)) throw InputError(fmt::format("--out {}: cannot write", o->out));
+    }
     if (o->json) {
       std::cout << result_json(result, o->out).dump() << std::endl;
     } else {
-      print_result(result, o->out);
+      print_result(result, written);
     }
   });
 }

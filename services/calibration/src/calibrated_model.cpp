@@ -32,16 +32,34 @@ std::string rms_summary(const ChannelRms& r) {
 
 std::string entry_for(const std::string& key, const FittedValue& v, const CalibrationResult& r,
                       const std::string& previous_source) {
-  std::string source = fmt::format(
-      "calibrated: estimate {:.6g} +- {:.3g} (1 sd) {}, from {:.6g}; cost {:.6g} -> {:.6g}{}{}", v.estimate,
-      v.standard_deviation, v.unit, v.initial, r.cost_before, r.cost_after, v.at_bound ? "; AT ITS PHYSICAL BOUND" : "",
-      previous_source.empty() ? "" : "; before: " + without_double_quotes(previous_source));
-  return fmt::format("{}: {{value: {:.6g}, source: \"{}\"}}", key, v.estimate, source);
+  return fmt::format("{}: {{value: {:.6g}, source: \"{}\"}}", key, v.estimate, calibrated_source(v, r, previous_source));
 }
 
 std::string indent_of(const std::string& line) { return line.substr(0, line.find_first_not_of(' ')); }
 
 }  // namespace
+
+std::string calibrated_source(const FittedValue& v, const CalibrationResult& r, const std::string& previous_source) {
+  return fmt::format("calibrated: estimate {:.6g} +- {:.3g} (1 sd) {}, from {:.6g}; cost {:.6g} -> {:.6g}{}{}", v.estimate,
+                     v.standard_deviation, v.unit, v.initial, r.cost_before, r.cost_after,
+                     v.at_bound ? "; AT ITS PHYSICAL BOUND" : "",
+                     previous_source.empty() ? "" : "; before: " + without_double_quotes(previous_source));
+}
+
+std::string calibration_header(const std::string& model_source, const CalibrationResult& result,
+                               const std::vector<std::string>& trace_sources) {
+  std::ostringstream out;
+  out << "# Calibrated by `cpgmatch calibrate` from " << model_source << " on " << trace_sources.size()
+      << " trace(s): " << fmt::format("{}", fmt::join(trace_sources, ", ")) << "\n";
+  out << fmt::format("# Fitted {} value(s), {} residuals, {} iterations, {} replays; cost {:.6g} -> {:.6g}.\n",
+                     result.values.size(), result.residual_count, result.iterations, result.simulations,
+                     result.cost_before, result.cost_after);
+  out << "# RMS misfit before: " << rms_summary(result.rms_before) << "\n";
+  out << "# RMS misfit after:  " << rms_summary(result.rms_after) << "\n";
+  out << "# Standard deviations: Ceres covariance scaled by the fit's residual variance; consecutive ticks are\n"
+         "# correlated, so they are lower bounds on the real uncertainty (docs/calibration.md).\n";
+  return out.str();
+}
 
 std::string calibrated_model_text(const std::string& model_text, const std::string& model_source,
                                   const CalibrationResult& result, const std::vector<std::string>& trace_sources) {
@@ -77,15 +95,7 @@ std::string calibrated_model_text(const std::string& model_text, const std::stri
     lines[line] = indent_of(lines[line]) + entry_for(key, v, result, previous_source);
   }
   std::ostringstream out;
-  out << "# Calibrated by `cpgmatch calibrate` from " << model_source << " on " << trace_sources.size()
-      << " trace(s): " << fmt::format("{}", fmt::join(trace_sources, ", ")) << "\n";
-  out << fmt::format("# Fitted {} value(s), {} residuals, {} iterations, {} replays; cost {:.6g} -> {:.6g}.\n",
-                     result.values.size(), result.residual_count, result.iterations, result.simulations,
-                     result.cost_before, result.cost_after);
-  out << "# RMS misfit before: " << rms_summary(result.rms_before) << "\n";
-  out << "# RMS misfit after:  " << rms_summary(result.rms_after) << "\n";
-  out << "# Standard deviations: Ceres covariance scaled by the fit's residual variance; consecutive ticks are\n"
-         "# correlated, so they are lower bounds on the real uncertainty (docs/calibration.md).\n";
+  out << calibration_header(model_source, result, trace_sources);
   for (const auto& l : lines) out << l << "\n";
   for (const auto& a : appended) out << a << "\n";
   return out.str();

@@ -22,6 +22,14 @@ const std::vector<ModelValue>& calibratable_values() {
       {"biarticular_spring.stiffness_nm_per_rad", "N m/rad", 1.0, 15.0,
        "weaker than the knee spring, same order of magnitude",
        [](M& m) -> double& { return m.biarticular_spring.stiffness_nm_per_rad; }},
+      // A spring across the knee, beside its motor (odrive-quadruped's): a robot's description only. Bounds as
+      // the series knee spring's; a robot's calibration bounds it around its own value (robot_values.cpp).
+      {"knee_parallel_spring.stiffness_nm_per_rad", "N m/rad", 0.5, 45.0,
+       "a weak return spring to the stiffest knee spring of this size class",
+       [](M& m) -> double& { return m.knee_parallel_spring.stiffness_nm_per_rad; }, false},
+      {"knee_parallel_spring.damping_nm_s_per_rad", "N m s/rad", 0.0, 0.8,
+       "a bare steel spring (no damping) to a critically damped knee",
+       [](M& m) -> double& { return m.knee_parallel_spring.damping_nm_s_per_rad; }, false},
       {"trunk.mass_kg", "kg", 1.5, 6.0, "the bare carbon frame to a trunk with battery, computer and payload",
        [](M& m) -> double& { return m.trunk_mass_kg; }},
       {"contact.friction", "", 0.1, 1.5, "rubber on a wet or dusty belt (0.1-0.3) to rubber on clean rubber (1.5)",

@@ -47,16 +47,13 @@ StudyTraces load_study_traces(const study::StudyStore& store, int study_id, doub
   if (!stored) throw InputError(fmt::format("{}: no such study", where));
   if (stored->spec.json.empty()) throw InputError(fmt::format("{}: the study has no spec (an older store?)", where));
   const study::StudySpec spec = study::StudySpec::from_json_text(stored->spec.json, where);
-  if (spec.robot()) {
-    // Calibration writes a model file, and a study of a robot takes its model from the robot's description.
-    throw InputError(fmt::format("{}: the study is of robot '{}'; calibrating a robot's description is not built yet "
-                                 "(calibration fits model files of Morti's model: studies without `robot:`)",
-                                 where, spec.robot()->name));
-  }
   StudyTraces out;
+  // The spec's model is what every rollout of it ran on: for a robot, planar_leg_model of its description.
   out.model = spec.model();
-  out.model_yaml = model_yaml_of(spec.tree()["model"]);
-  out.model_source = fmt::format("{} study {} (spec {})", store.path(), study_id, spec.sha256().substr(0, 16));
+  out.robot = spec.robot();
+  if (!out.robot) out.model_yaml = model_yaml_of(spec.tree()["model"]);
+  out.model_source = fmt::format("{} study {} (spec {}{})", store.path(), study_id, spec.sha256().substr(0, 16),
+                                 out.robot ? ", robot " + out.robot->name : "");
   for (study::StoredTrace& kept : store.load_traces(study_id)) {
     domain::RolloutTrace& t = kept.trace;
     const std::string name = t.trace.source;

@@ -15,4 +15,13 @@ namespace cpgmatch::calibration {
 std::string calibrated_model_text(const std::string& model_text, const std::string& model_source,
                                   const CalibrationResult& result, const std::vector<std::string>& trace_sources);
 
+// The note a calibrated entry carries in place of its source: "calibrated: estimate E +- SD (1 sd) UNIT, from
+// START; cost BEFORE -> AFTER; before: PREVIOUS SOURCE" (double quotes in it made single, so that it can be
+// written in a double-quoted YAML string). Shared by model files and robot descriptions.
+std::string calibrated_source(const FittedValue& value, const CalibrationResult& result, const std::string& previous_source);
+// The comment lines a calibrated file starts with: the start and the traces, the residuals, iterations and
+// replays, the cost and each channel's RMS misfit before and after.
+std::string calibration_header(const std::string& model_source, const CalibrationResult& result,
+                               const std::vector<std::string>& trace_sources);
+
 }  // namespace cpgmatch::calibration

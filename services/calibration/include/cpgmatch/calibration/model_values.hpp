@@ -17,6 +17,9 @@ struct ModelValue {
   double upper = 0.0;
   std::string bounds_reason;
   double& (*ref)(sim::PlanarLegModel&);  // where the value lives in the model
+  // False for a value only a robot's description has (a spring across the knee): Morti's model file has no
+  // section for it, so a model-file calibration refuses it (robot_values.hpp says where it lives in a robot).
+  bool in_model_files = true;
 
   double get(sim::PlanarLegModel model) const { return ref(model); }
   void set(sim::PlanarLegModel& model, double value) const { ref(model) = value; }
