@@ -8,6 +8,7 @@
 
 #include "cpgmatch/errors.hpp"
 #include "cpgmatch/robot/robot_config.hpp"
+#include "cpgmatch/robot_description_loader.hpp"
 #include "../support/morti_legs.hpp"
 
 using namespace cpgmatch::test;  // Morti's legs: FL FR HL HR
@@ -146,6 +147,28 @@ TEST(RobotConfig, ShippedOdriveAndMoteusDescriptionsLoad) {
   EXPECT_DOUBLE_EQ(hexapod.knee(5).moteus.servo_kp_nm_per_rad, 50.0);
   // The Plant carries six legs (up to kMaxLegs); nine would be more than it carries.
   EXPECT_FALSE(hexapod.plant_mismatch().has_value());
+}
+
+// Where a robot description drives a joint by a position PD (the motor's own position loop), the hardware file
+// must send that loop the description's gains: the simulation optimises the body with them, and the robot
+// must be run with the same drive (the ODrive quadruped's file once had Morti's 40/20 N m/rad and fell where
+// its simulation walked). A series-elastic knee's motor gains are the motor's, not the spring's: not compared.
+TEST(RobotConfig, ShippedHardwareSendsItsDescriptionsPositionGains) {
+  int compared = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(default_robot_config_path()).parent_path())) {
+    const RobotConfig config = load_robot_config(entry.path().string());
+    if (config.robot.empty()) continue;
+    SCOPED_TRACE(entry.path().string());
+    const RobotDescription robot = load_robot(config.robot);
+    for (const JointConfig& joint : config.joints) {
+      const DriveDescription& drive = robot.drives.at(joint.role == JointRole::kHip ? "hip" : "knee");
+      if (drive.kind != DriveDescription::Kind::kPositionPd) continue;
+      EXPECT_DOUBLE_EQ(joint.kp_nm_per_rad, drive.kp_nm_per_rad) << joint.name;
+      EXPECT_DOUBLE_EQ(joint.kd_nm_s_per_rad, drive.kd_nm_s_per_rad) << joint.name;
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 4 + 8 + 12) << "Morti's hips, the quadruped's and the hexapod's joints";
 }
 
 // Renaming joints as a URDF would is fine now: names are the robot's, leg and role say what they are.
