@@ -7,7 +7,8 @@
 // --model is the simulated body: a robot description (a shipped robot's name, its folder or its robot.yaml)
 // or a model file (configs/model/*.yaml, Morti's reality-gap scenarios). Without it, the robot description
 // the hardware file names in `robot:` (odrive-quadruped's hardware walks on odrive-quadruped's body), or
-// Morti's model file when the hardware file names none.
+// Morti's model file when the hardware file names none. --switch-model-at N:BODY changes the body between
+// rollouts N and N + 1 (a robot that wears, is loaded or walks onto another floor mid-study).
 //
 // Real time (default): physics steps at the model's rate against the wall clock; each motor answers its
 // command at once with its latest state, like a motor driver; the sensor nodes stream every control
@@ -24,6 +25,8 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -59,6 +62,7 @@ struct Options {
   double latency_ms = 0.0;
   double extra_friction_nm = 0.0;
   double driver_timeout_ms = 100.0;  // the motor drivers' own command watchdog (RobotDevice::enforce_command_timeout)
+  std::vector<std::string> body_switches;  // --switch-model-at N:BODY
 };
 
 // Whether --model names a robot description rather than a model file: a shipped robot's name, a folder, or a
@@ -97,6 +101,42 @@ sim::PlanarLegModel with_extra_friction(sim::PlanarLegModel model, double extra_
   return model;
 }
 
+// --switch-model-at N:BODY: from rollout N + 1 on, the robot is BODY (a worn spring, a swapped battery, another
+// floor): the robot of a lifelong study changes under it, between two rollouts, as a real one would (issue 33).
+struct BodySwitch {
+  int after_rollouts = 0;
+  std::string body;
+  sim::PlanarLegModel model;
+};
+
+BodySwitch parse_body_switch(const std::string& text) {
+  const std::size_t colon = text.find(':');
+  BodySwitch out;
+  std::size_t used = 0;
+  try {
+    out.after_rollouts = colon == std::string::npos ? -1 : std::stoi(text.substr(0, colon), &used);
+  } catch (const std::exception&) {
+    out.after_rollouts = -1;
+  }
+  if (colon == std::string::npos || used != colon || out.after_rollouts < 0) {
+    throw InputError(fmt::format("--switch-model-at '{}': expected N:BODY, N >= 0 the rollouts run on the body before", text));
+  }
+  out.body = text.substr(colon + 1);
+  if (out.body.empty()) throw InputError(fmt::format("--switch-model-at '{}': no body after the colon", text));
+  return out;
+}
+
+// The simulation steps per control period: the body's physics rate must be a multiple of the robot's.
+int steps_per_control(const sim::PlanarLegModel& model, const RobotConfig& config, const std::string& body) {
+  const double ratio = model.physics_rate_hz / config.control_rate_hz;
+  const int steps = static_cast<int>(std::lround(ratio));
+  if (steps < 1 || std::abs(ratio - steps) > 1e-9) {
+    throw InputError(fmt::format("{}: the model's physics rate {} Hz must be a multiple of the robot's control rate {} Hz",
+                                 body, model.physics_rate_hz, config.control_rate_hz));
+  }
+  return steps;
+}
+
 class Emulator {
  public:
   explicit Emulator(const Options& o)
@@ -107,13 +147,18 @@ class Emulator {
         config_(checked_against(hardware_, model_)),
         bus_(can::open_can_bus(o.can_uri, can::BusRole::kDevice)),
         device_(config_, *bus_, o.imperfections) {
-    reset_world();
-    const double ratio = model_.physics_rate_hz / config_.control_rate_hz;
-    steps_per_control_ = static_cast<int>(std::lround(ratio));
-    if (steps_per_control_ < 1 || std::abs(ratio - steps_per_control_) > 1e-9) {
-      throw InputError(fmt::format("the model's physics rate {} Hz must be a multiple of the robot's control rate {} Hz",
-                                   model_.physics_rate_hz, config_.control_rate_hz));
+    steps_per_control_ = steps_per_control(model_, config_, body_name());
+    // Every switch's body is read and checked now: a bad one exits 2 before the bus carries a rollout.
+    for (const std::string& text : o.body_switches) {
+      BodySwitch next = parse_body_switch(text);
+      next.model = with_extra_friction(simulated_body(next.body, hardware_), o.extra_friction_nm);
+      (void)checked_against(hardware_, next.model);
+      (void)steps_per_control(next.model, config_, next.body);
+      switches_.push_back(std::move(next));
     }
+    std::stable_sort(switches_.begin(), switches_.end(),
+                     [](const BodySwitch& a, const BodySwitch& b) { return a.after_rollouts < b.after_rollouts; });
+    reset_world();
   }
 
   int run() {
@@ -127,6 +172,17 @@ class Emulator {
   std::string body_name() const {
     if (!options_.model_path.empty()) return options_.model_path;
     return hardware_.robot.empty() ? sim::default_model_path() : "robot " + hardware_.robot;
+  }
+
+  // Before rollout rollouts_ + 1 starts: the last switch due by now (several at one N: the last given wins).
+  void switch_body_if_due() {
+    while (next_switch_ < switches_.size() && switches_[next_switch_].after_rollouts <= rollouts_) {
+      const BodySwitch& due = switches_[next_switch_++];
+      model_ = due.model;
+      steps_per_control_ = steps_per_control(model_, config_, due.body);
+      std::fprintf(stderr, "emulator: after %d rollouts the body is now %s (%zu legs, %.2f kg)\n", rollouts_,
+                   due.body.c_str(), model_.leg_count(), model_.total_mass_kg());
+    }
   }
 
   void reset_world() {
@@ -173,6 +229,7 @@ class Emulator {
     const bool was_enabled = any_enabled();
     const RobotDevice::Received got = device_.receive(timeout);
     if (got.event == RobotDevice::Event::kEnable && !was_enabled) {
+      switch_body_if_due();
       reset_world();
       ++rollouts_;
       std::fprintf(stderr, "emulator: motors enabled, rollout %d starts on a fresh world\n", rollouts_);
@@ -259,6 +316,8 @@ class Emulator {
   bool was_safe_ = true;  // the robot starts off, hanging in its rig
   bool was_off_ = true;
   int rollouts_ = 0;
+  std::vector<BodySwitch> switches_;  // by after_rollouts
+  std::size_t next_switch_ = 0;
 };
 
 }  // namespace
@@ -274,6 +333,8 @@ int main(int argc, char** argv) {
                  "the simulated body: a robot description (shipped name, folder, robot.yaml) or a model file "
                  "(default: the robot the hardware file names, else configs/model/morti.yaml)");
   app.add_option("--robot", o.robot_path, "hardware description the agent drives (default: configs/robot/morti.yaml)");
+  app.add_option("--switch-model-at", o.body_switches,
+                 "N:BODY: from rollout N+1 on, simulate BODY instead (as --model; repeatable): the robot changes mid-study");
   app.add_option("--terrain", o.terrain, "flat | step:H@D | rough:A | shift:H@T")->capture_default_str();
   app.add_option("--seed", o.seed, "seed of the world (rough terrain) and of the imperfections")->capture_default_str();
   app.add_flag("--lockstep", o.lockstep, "step one control period whenever every motor was commanded (no wall clock)");

@@ -15,7 +15,7 @@ StudyTrials one_parameter_matters() {
   StudyTrials s;
   s.name = "bowl";
   s.seed = 7;
-  s.dimensions = {{"hip_offset", -0.3, 0.3, false}, {"overswing", 0.0, 0.5, false}};
+  s.dimensions = {{"hip_offset", -0.3, 0.3, false, "rad"}, {"overswing", 0.0, 0.5, false, ""}};
   for (const auto& d : s.dimensions) s.bounds[d.name] = {d.low, d.high};
   for (int i = 0; i < 40; ++i) {
     Trial t;

@@ -499,7 +499,7 @@ INSTANTIATE_TEST_SUITE_P(EachProtocol, ProtocolRollout,
                                            ProtocolCase{"moteus_virtual", moteus_quadruped, "virtual"},
                                            ProtocolCase{"moteus_udp", moteus_quadruped, "udp"},
                                            ProtocolCase{"mit_udp", [] { return shipped("morti.yaml"); }, "udp"}),
-                         [](const auto& info) { return std::string(info.param.name); });
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
 
 // The hexapod's description loads and its CanPlant carries six legs (the Plant is N-legged).
 TEST(ProtocolRollout, TheHexapodsPlantHasSixLegs) {

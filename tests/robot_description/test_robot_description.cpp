@@ -235,8 +235,9 @@ INSTANTIATE_TEST_SUITE_P(
                       ShippedWalker{"moteus-hexapod", "tripod", "", {"L1", "R1", "L2", "R2", "L3", "R3"}},
                       ShippedWalker{"moteus-hexapod", "slow", "ripple", {"L1", "R1", "L2", "R2", "L3", "R3"}},
                       ShippedWalker{"moteus-hexapod", "slow", "wave", {"L1", "R1", "L2", "R2", "L3", "R3"}}),
-    [](const ::testing::TestParamInfo<ShippedWalker>& info) {
-      std::string name = std::string(info.param.robot) + "_" + info.param.preset + "_" + info.param.gait;
+    [](const ::testing::TestParamInfo<ShippedWalker>& param_info) {
+      const ShippedWalker& w = param_info.param;
+      std::string name = std::string(w.robot) + "_" + w.preset + "_" + w.gait;
       for (char& c : name) if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
       return name;
     });

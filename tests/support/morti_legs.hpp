@@ -9,7 +9,7 @@
 
 namespace cpgmatch::test {
 
-inline constexpr std::size_t kNumLegs = 4;
+inline constexpr int kNumLegs = 4;  // an int: the tests loop over legs with int indices
 enum Leg : int { kFrontLeft = 0, kFrontRight = 1, kHindLeft = 2, kHindRight = 3 };
 inline constexpr std::array<std::string_view, kNumLegs> kLegNames{"FL", "FR", "HL", "HR"};
 inline constexpr bool is_front(int leg) { return leg == kFrontLeft || leg == kFrontRight; }

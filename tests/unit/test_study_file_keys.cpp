@@ -50,7 +50,9 @@ TEST(StudyFileKeys, NestedKeysBelongToAListedTopLevelKeyAndEveryKeyIsDescribed) 
   for (const study::StudyFileKey& key : study::study_file_keys()) {
     const std::string name = key.key;
     const auto dot = name.find('.');
-    if (dot != std::string::npos) EXPECT_TRUE(top_set.count(name.substr(0, dot))) << name;
+    if (dot != std::string::npos) {
+      EXPECT_TRUE(top_set.count(name.substr(0, dot))) << name;
+    }
     EXPECT_GT(std::string(key.description).size(), 10u) << name;
     EXPECT_GT(std::string(key.value).size(), 2u) << name;
   }

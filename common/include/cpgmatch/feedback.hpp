@@ -126,7 +126,8 @@ struct FeedbackAction {
 
 class LegFeedback {
  public:
-  explicit LegFeedback(FeedbackConfig config = {});
+  LegFeedback() : LegFeedback(FeedbackConfig{}) {}  // not explicit: PerLeg value-initialises its items
+  explicit LegFeedback(FeedbackConfig config);
 
   // Call once per control tick with the leg's phase before and after the previous oscillator step and
   // the latest polled contact. dt_s is the control period.

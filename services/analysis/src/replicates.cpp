@@ -99,7 +99,7 @@ std::string format_table(const ReplicateSummary& s) {
   out += "per seed (seed order):\n";
   for (const auto& [label, path] : per_seed_rows()) {
     out += fmt::format("  {:<54}", label);
-    for (const auto& r : s.reports) out += " " + format_value(json_at(r, path), 3);
+    for (const auto& r : s.reports) out += fmt::format(" {}", format_value(json_at(r, path), 3));
     out += "\n";
   }
   return out;

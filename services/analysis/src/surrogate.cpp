@@ -65,7 +65,7 @@ Data model_data(const StudyTrials& s, const std::vector<SearchDimension>& dims) 
 std::vector<SearchDimension> search_dimensions(const StudyTrials& s) {
   if (!s.dimensions.empty()) return s.dimensions;
   std::vector<SearchDimension> dims;
-  for (const auto& [name, b] : s.bounds) dims.push_back({name, b.low, b.high, false});
+  for (const auto& [name, b] : s.bounds) dims.push_back({name, b.low, b.high, false, ""});  // older stores: no unit
   return dims;
 }
 
