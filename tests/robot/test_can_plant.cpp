@@ -415,8 +415,13 @@ TEST(CanPlant, BusOffErrorFrameTrips) {
   bus_off.id = 0x40;  // CAN_ERR_BUSOFF
   bus_off.length = 8;
   controller->send(bus_off);
-  plant.command(pose(0.0, 0.0));
-  plant.advance(plant.time_step_s());
+  // The frame reaches the plant's receive thread asynchronously: under a loaded ctest it was once read only
+  // after the first period (1 failure in 593 tests). What is tested is that bus-off trips the plant at all;
+  // how fast a silent bus trips it is the watchdog's tests.
+  for (int period = 0; period < 250 && !plant.tripped(); ++period) {
+    plant.command(pose(0.0, 0.0));
+    plant.advance(plant.time_step_s());
+  }
   ASSERT_TRUE(plant.tripped());
   EXPECT_EQ(*plant.fault(), "CAN controller is bus-off");
 }

@@ -3,7 +3,8 @@
 # agent (--run-once, no DDS) against one emulator switched after the first to Morti on the slippery belt
 # (configs/robots/morti/scenarios/slippery-belt.yaml) and after the second back to Morti: rollouts 1 and 3
 # reproduce the direct simulation of Morti, rollout 2 that of the slippery belt, each within the MIT twin's
-# tolerance (test_agent_emulator.sh), while the two bodies' costs differ by far more. A bad switch exits 2.
+# tolerance (test_agent_emulator.sh) and nearer its own body's cost than the other's, while the two bodies'
+# costs differ by far more. A bad switch exits 2.
 source "$(dirname "$0")/robot_lib.sh"
 relaxed_robot_yaml "$WORK/robot.yaml"
 AGENT="$BIN/cpgmatch-robot-agent"
@@ -39,9 +40,11 @@ first, second, third, morti, slippery = (json.loads(a) for a in sys.argv[1:6])
 for name, r in (("1", first), ("2", second), ("3", third), ("morti", morti), ("slippery", slippery)):
     print(name, {k: r[k] for k in ("cost", "fell", "distance_m")})
 rest = lambda r: r["cost"] - r["terms"]["contact"]
-# The two bodies are told apart by far more than the twin's 7 % (the belt: feet slide, the trunk covers less).
-assert abs(morti["distance_m"] - slippery["distance_m"]) > 0.2 * abs(morti["distance_m"]), (morti, slippery)
-for r, sim in ((first, morti), (second, slippery), (third, morti)):
+# The two bodies are told apart by far more than the twin's 7 %: on the belt the sliding stance feet cost
+# feedback and pitch (2 + 2 s, seed 5: 3.76 against 2.28), though the trunk covers about the same distance.
+assert abs(morti["cost"] - slippery["cost"]) > 0.3 * morti["cost"], (morti["cost"], slippery["cost"])
+for r, sim, other in ((first, morti, slippery), (second, slippery, morti), (third, morti, slippery)):
+    assert abs(r["cost"] - sim["cost"]) < abs(r["cost"] - other["cost"]), (r["cost"], sim["cost"], other["cost"])
     assert r["ok"], r["error"]
     assert r["fell"] == sim["fell"]
     assert abs(r["distance_m"] - sim["distance_m"]) <= 0.07 * abs(sim["distance_m"]), (r["distance_m"], sim["distance_m"])
