@@ -87,5 +87,18 @@ for t in o["trials"]:
 sys.exit(0 if ok else 1)
 PY
 
+# The shipped study files (configs/studies/): each resolves to a spec of its robot, whose hash differs per robot.
+configs="$(cd "$(dirname "$0")/../../configs" && pwd)"
+for study in "$configs"/studies/*.yaml; do
+  name=$(basename "$study" .yaml)
+  "$bin" study resolve --config "$study" --json >"$tmp/spec-$name.json" 2>"$tmp/spec-$name.err"
+  check "configs/studies/$name.yaml resolves" test $? -eq 0
+  check "configs/studies/$name.yaml is a study of robot $name" python3 - "$tmp/spec-$name.json" "$name" <<'PY'
+import json, sys
+text = open(sys.argv[1]).read()
+sys.exit(0 if f'"name":"{sys.argv[2]}"' in text.replace(" ", "") and "robot" in text else 1)
+PY
+done
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
