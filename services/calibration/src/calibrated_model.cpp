@@ -40,9 +40,10 @@ std::string indent_of(const std::string& line) { return line.substr(0, line.find
 }  // namespace
 
 std::string calibrated_source(const FittedValue& v, const CalibrationResult& r, const std::string& previous_source) {
-  return fmt::format("calibrated: estimate {:.6g} +- {:.3g} (1 sd) {}, from {:.6g}; cost {:.6g} -> {:.6g}{}{}", v.estimate,
-                     v.standard_deviation, v.unit, v.initial, r.cost_before, r.cost_after,
-                     v.at_bound ? "; AT ITS PHYSICAL BOUND" : "",
+  return fmt::format("calibrated: estimate {:.6g} +- {:.3g} (1 sd, {}) {}, from {:.6g}; cost {:.6g} -> {:.6g}{}{}{}",
+                     v.estimate, v.standard_deviation, v.sd_from == "windows" ? "the windows' spread" : "covariance",
+                     v.unit, v.initial, r.cost_before, r.cost_after, v.at_bound ? "; AT ITS PHYSICAL BOUND" : "",
+                     v.identifiable ? "" : "; NOT IDENTIFIABLE: " + without_double_quotes(v.not_identifiable_reason),
                      previous_source.empty() ? "" : "; before: " + without_double_quotes(previous_source));
 }
 
