@@ -103,6 +103,11 @@ TEST(Uncertainty, TheLargerMeasureIsTheSdAndEachFlagHasItsReason) {
     settle_uncertainty(v, {nan}, {});
     EXPECT_FALSE(v[0].identifiable);
     EXPECT_NE(v[0].not_identifiable_reason.find("singular"), std::string::npos);
+    // Windows that disagree by more than a quarter of the value: an honest sd, but no value.
+    settle_uncertainty(v, {0.01}, {{5.0}, {10.0}, {15.0}});
+    EXPECT_FALSE(v[0].identifiable);
+    EXPECT_NE(v[0].not_identifiable_reason.find("its order"), std::string::npos);
+    EXPECT_EQ(v[0].standard_deviation, 5.0);
     v[0].at_bound = true;
     settle_uncertainty(v, {0.1}, {});
     EXPECT_FALSE(v[0].identifiable);

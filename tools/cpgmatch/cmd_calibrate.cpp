@@ -92,9 +92,13 @@ void print_result(const cal::CalibrationResult& r, const std::string& out) {
     fmt::print("  {:<42} {:>10.5g} -> {:>10.5g} +- {:.3g} {}{}\n", v.name, v.initial, v.estimate, v.standard_deviation,
                v.unit, v.at_bound ? "  (at its physical bound)" : "");
     // Both measures, so that a reader sees how far the noise alone would have put it.
-    fmt::print("      sd: covariance {:.3g}, {} windows' spread {:.3g} (standard error {:.3g}); the sd is the {}\n",
-               v.covariance_sd, v.window_estimates.size(), v.window_sd, v.window_se,
-               v.sd_from == "windows" ? "windows' spread (larger)" : "covariance's (larger)");
+    if (v.window_estimates.size() < 2) {
+      fmt::print("      sd: the covariance alone (no windows to compare: a lower bound)\n");
+    } else {
+      fmt::print("      sd: covariance {:.3g}, {} windows' spread {:.3g} (standard error {:.3g}); the sd is the {}\n",
+                 v.covariance_sd, v.window_estimates.size(), v.window_sd, v.window_se,
+                 v.sd_from == "windows" ? "windows' spread (larger)" : "covariance's (larger)");
+    }
     if (!v.identifiable) fmt::print("      NOT IDENTIFIABLE: {}\n", v.not_identifiable_reason);
   }
   fmt::print("  cost {:.6g} -> {:.6g}; RMS knee {:.4f} -> {:.4f} rad, hip {:.4f} -> {:.4f} rad, speed {:.3f} -> "

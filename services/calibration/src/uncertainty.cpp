@@ -61,6 +61,14 @@ void settle_uncertainty(std::vector<FittedValue>& values, const std::vector<doub
         }
       }
     }
+    if (v.identifiable && std::abs(v.standard_deviation) > kLooseRelativeSd * std::abs(v.estimate)) {
+      // The sd is kept: it is honest, only too large for the value to count as fitted.
+      v.identifiable = false;
+      v.not_identifiable_reason = fmt::format("the sd ({:.3g}, from the {}) is over {:.0f}% of the estimate: these traces "
+                                              "give its order, not its value", v.standard_deviation, v.sd_from,
+                                              100.0 * kLooseRelativeSd);
+      continue;
+    }
     if (!v.identifiable) v.standard_deviation = nan;
   }
 }

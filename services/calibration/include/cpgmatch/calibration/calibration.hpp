@@ -66,11 +66,10 @@ struct FittedValue {
   std::string unit;
   double initial = 0.0;
   double estimate = 0.0;
-  // One standard deviation from Ceres' covariance, scaled by the fit's own residual variance (reduced
-  // chi-square): NaN when the values are not identifiable from these traces (a singular Jacobian).
-  // The larger of covariance_sd and window_sd (sd_from says which): the covariance counts only the
-  // residuals' noise, the windows' disagreement counts a model that explains each stretch of the trace with
-  // another value. NaN when not identifiable.
+  // One standard deviation: the larger of covariance_sd and window_sd (sd_from says which). The covariance
+  // counts only the residuals' noise; the windows' disagreement counts a model that explains each stretch
+  // of the trace with another value. NaN when not identifiable for a singular covariance, a bound or a
+  // correlated pair (uncertainty.hpp); kept when the reason is only its size.
   double standard_deviation = 0.0;
   double lower = 0.0;
   double upper = 0.0;
@@ -81,7 +80,8 @@ struct FittedValue {
   double window_se = 0.0;  // window_sd / sqrt(count): the standard error of their mean (reported, not used: see uncertainty.cpp)
   std::string sd_from;     // "covariance" or "windows": which one standard_deviation is
   bool identifiable = true;
-  std::string not_identifiable_reason;  // why not: a singular covariance, a bound, a value it cannot tell from another
+  // Why not: a singular covariance, a bound, a value it cannot tell from another, an sd over a quarter of it.
+  std::string not_identifiable_reason;
 };
 
 struct CalibrationResult {

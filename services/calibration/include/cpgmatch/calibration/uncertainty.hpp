@@ -20,6 +20,11 @@ Spread spread_of(const std::vector<double>& xs);
 // pair is given describes a line in their plane, not each value.
 inline constexpr double kIndistinguishableCorrelation = 0.995;
 
+// An sd above this fraction of the estimate: its 2-sd interval runs from about half the value to one and a
+// half times it, so the traces give the value's order, not the value (the gearbox's viscous friction on the
+// matched trot: windows 40-50% apart, docs/calibration.md).
+inline constexpr double kLooseRelativeSd = 0.25;
+
 // Fills each value's covariance_sd, window_estimates, window_sd and window_se, standard_deviation (the larger
 // of covariance_sd and window_sd) with sd_from, and identifiable with its reason. `covariance` is n x n in
 // the values' units, row-major, all NaN when singular; `window_rows` one row of estimates per window.
