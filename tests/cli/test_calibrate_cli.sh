@@ -56,6 +56,7 @@ assert r['windows'] == 3 and len(v['window_estimates']) == 3, r
 assert v['standard_deviation'] == max(v['covariance_sd'], v['window_sd']) and v['identifiable'], v
 assert v['sd_from'] in ('covariance', 'windows'), v" "$out"
 check "calibrated model says so" grep -q "stiffness_nm_per_rad: {value: 1[12]\.[0-9]*, source: \"calibrated: estimate" "$tmp/cal.yaml"
+check "calibrated model's header names the windows" grep -q "the spread of 3 windows fitted alone" "$tmp/cal.yaml"
 check "calibrated model loads" "$bin" rollout --model "$tmp/cal.yaml" --entrain 0 --eval 0.1 --json >/dev/null
 
 echo "$passed passed, $failed failed"

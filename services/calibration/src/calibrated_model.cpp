@@ -57,8 +57,13 @@ std::string calibration_header(const std::string& model_source, const Calibratio
                      result.cost_before, result.cost_after);
   out << "# RMS misfit before: " << rms_summary(result.rms_before) << "\n";
   out << "# RMS misfit after:  " << rms_summary(result.rms_after) << "\n";
-  out << "# Standard deviations: Ceres covariance scaled by the fit's residual variance; consecutive ticks are\n"
-         "# correlated, so they are lower bounds on the real uncertainty (docs/calibration.md).\n";
+  if (result.window_count >= 2) {
+    out << fmt::format("# Standard deviations: the larger of Ceres' covariance (scaled by the fit's residual variance) and\n"
+                       "# the spread of {} windows fitted alone, each note says which (docs/calibration.md).\n", result.window_count);
+  } else {
+    out << "# Standard deviations: Ceres covariance scaled by the fit's residual variance, no windows to compare;\n"
+           "# consecutive ticks are correlated, so they are lower bounds on the real uncertainty (docs/calibration.md).\n";
+  }
   return out.str();
 }
 
