@@ -107,7 +107,7 @@ def traces(model_file, tmp, tag):
 
 def calibrate(trace_list, params, values, tmp):
     cmd = [cpgmatch, "calibrate", "--params-file", os.path.join(root, "configs", "params", params + ".yaml"),
-           "--params", ",".join(values), "--out", os.path.join(tmp, "calibrated.yaml"), "--window", str(window), "--json"]
+           "--params", ",".join(values), "--out", os.path.join(tmp, "calibrated.yaml"), "--window", str(window), "--windows", "1", "--json"]
     for path in trace_list:
         cmd += ["--trace", path]
     cmd += args  # the flags left after this script's own

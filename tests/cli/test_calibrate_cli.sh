@@ -26,6 +26,7 @@ check "a robot's value on a model file" expect_exit 2 "knee_parallel_spring.stif
 check "value twice" expect_exit 2 "named twice" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee,$knee
 check "window 0" expect_exit 2 "\-\-window" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee --window 0
 check "window nan" expect_exit 2 "\-\-window" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee --window nan
+check "windows 0" expect_exit 2 "\-\-windows" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee --windows 0
 check "grid negative" expect_exit 2 "\-\-grid" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee --grid -1
 check "step too large" expect_exit 2 "\-\-relative-step" run --trace "$tmp/worn.csv" --params-file "$params" --params $knee --relative-step 1
 check "missing trace file" expect_exit 2 "nope.csv: cannot open" run --trace "$tmp/nope.csv" --params-file "$params" --params $knee
@@ -48,8 +49,14 @@ check "estimate within 10% of 12" python3 -c "
 import json, sys
 r = json.loads(sys.argv[1]); v = r['values'][0]
 assert v['name'] == '$knee' and abs(v['estimate'] / 12.0 - 1) < 0.1, v
-assert v['standard_deviation'] > 0 and r['cost_after'] < r['cost_before'], r" "$out"
+assert v['standard_deviation'] > 0 and r['cost_after'] < r['cost_before'], r
+# The default: three windows of the 2-s trace (--window 2 x 3 windows is longer than the trace), each fitted
+# alone; the sd is the larger of the covariance's and the windows' scatter, and says which.
+assert r['windows'] == 3 and len(v['window_estimates']) == 3, r
+assert v['standard_deviation'] == max(v['covariance_sd'], v['window_sd']) and v['identifiable'], v
+assert v['sd_from'] in ('covariance', 'windows'), v" "$out"
 check "calibrated model says so" grep -q "stiffness_nm_per_rad: {value: 1[12]\.[0-9]*, source: \"calibrated: estimate" "$tmp/cal.yaml"
+check "calibrated model's header names the windows" grep -q "the spread of 3 windows fitted alone" "$tmp/cal.yaml"
 check "calibrated model loads" "$bin" rollout --model "$tmp/cal.yaml" --entrain 0 --eval 0.1 --json >/dev/null
 
 echo "$passed passed, $failed failed"

@@ -54,7 +54,7 @@ set -e
 # with 1 s, -7% with 1.5 s, -13% with 2 s and 3 s, and the cost at the true value grew from 308 to 98 894
 # (docs/calibration.md, "Traces from the store").
 out=$("$BIN/cpgmatch" calibrate --store "$WORK/s.db" --study "$id" --params knee_spring.stiffness_nm_per_rad \
-  --window 1.0 --out "$WORK/calibrated.yaml" --json 2>>"$WORK/calibrate.log") || fail "calibrate failed: $out $(cat "$WORK/calibrate.log")"
+  --window 1.0 --windows 1 --out "$WORK/calibrated.yaml" --json 2>>"$WORK/calibrate.log") || fail "calibrate failed: $out $(cat "$WORK/calibrate.log")"
 k=$(python3 -c 'import json,sys; v=json.loads(sys.argv[1])["values"][0]; print(v["estimate"])' "$out")
 python3 -c 'import sys; k=float(sys.argv[1]); sys.exit(0 if abs(k - 12.0) <= 1.2 else 1)' "$k" \
   || fail "knee spring estimate $k N m/rad, not within 10% of the robot's 12: $out"

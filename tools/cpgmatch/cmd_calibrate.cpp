@@ -40,7 +40,8 @@ struct CalibrateOptions {
   std::string terrain = "flat";
   double treadmill_mps = 0.0;
   std::uint64_t seed = 0;
-  double window_s = 3.0;
+  double window_s = 1.0;
+  int windows = 3;
   double contact_weight = 1.0;
   double force_scale = 2.0;
   double robust_rms = 3.0;
@@ -64,17 +65,23 @@ nlohmann::json rms_json(const cal::ChannelRms& r) {
           {"contact_mismatch", r.contact_mismatch}, {"foot_force_n", r.foot_force_n}};
 }
 
+nlohmann::json finite_or_null(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
 nlohmann::json result_json(const cal::CalibrationResult& r, const std::string& out) {
   nlohmann::json values = nlohmann::json::array();
   for (const auto& v : r.values) {
     values.push_back({{"name", v.name}, {"unit", v.unit}, {"initial", v.initial}, {"estimate", v.estimate},
                       {"standard_deviation", std::isfinite(v.standard_deviation) ? nlohmann::json(v.standard_deviation)
                                                                                  : nlohmann::json(nullptr)},
-                      {"lower", v.lower}, {"upper", v.upper}, {"at_bound", v.at_bound}});
+                      {"lower", v.lower}, {"upper", v.upper}, {"at_bound", v.at_bound},
+                      {"covariance_sd", finite_or_null(v.covariance_sd)}, {"window_sd", finite_or_null(v.window_sd)},
+                      {"window_se", finite_or_null(v.window_se)}, {"window_estimates", v.window_estimates},
+                      {"sd_from", v.sd_from}, {"identifiable", v.identifiable},
+                      {"not_identifiable_reason", v.not_identifiable_reason}});
   }
   return {{"values", values}, {"cost_before", r.cost_before}, {"cost_after", r.cost_after},
           {"rms_before", rms_json(r.rms_before)}, {"rms_after", rms_json(r.rms_after)},
-          {"residuals", r.residual_count}, {"iterations", r.iterations}, {"replays", r.simulations},
+          {"residuals", r.residual_count}, {"windows", r.window_count}, {"iterations", r.iterations}, {"replays", r.simulations},
           {"solver_start", r.solver_start}, {"wall_time_s", r.wall_time_s}, {"converged", r.converged}, {"solver", r.solver_report}, {"out", out}};
 }
 
@@ -84,6 +91,15 @@ void print_result(const cal::CalibrationResult& r, const std::string& out) {
   for (const auto& v : r.values) {
     fmt::print("  {:<42} {:>10.5g} -> {:>10.5g} +- {:.3g} {}{}\n", v.name, v.initial, v.estimate, v.standard_deviation,
                v.unit, v.at_bound ? "  (at its physical bound)" : "");
+    // Both measures, so that a reader sees how far the noise alone would have put it.
+    if (v.window_estimates.size() < 2) {
+      fmt::print("      sd: the covariance alone (no windows to compare: a lower bound)\n");
+    } else {
+      fmt::print("      sd: covariance {:.3g}, {} windows' spread {:.3g} (standard error {:.3g}); the sd is the {}\n",
+                 v.covariance_sd, v.window_estimates.size(), v.window_sd, v.window_se,
+                 v.sd_from == "windows" ? "windows' spread (larger)" : "covariance's (larger)");
+    }
+    if (!v.identifiable) fmt::print("      NOT IDENTIFIABLE: {}\n", v.not_identifiable_reason);
   }
   fmt::print("  cost {:.6g} -> {:.6g}; RMS knee {:.4f} -> {:.4f} rad, hip {:.4f} -> {:.4f} rad, speed {:.3f} -> "
              "{:.3f} m/s, contact mismatch {:.1f}% -> {:.1f}%, foot force {:.2f} -> {:.2f} N\n",
@@ -129,7 +145,11 @@ void add_calibrate_command(CLI::App& app) {
   cmd->add_option("--treadmill", o->treadmill_mps, "treadmill belt speed of the traces, m/s")->check(finite_in(-5.0, 5.0, "m/s"));
   cmd->add_option("--seed", o->seed, "seed of the replays' contact-sensor noise")->check(whole_non_negative());
   // A replay drifts from the robot as contact events accumulate: a few seconds from the start fit best.
-  cmd->add_option("--window", o->window_s, "seconds of each trace fitted, from its start")->check(finite_in(0.1, 60.0, "s"));
+  cmd->add_option("--window", o->window_s, "seconds of each window (the fit uses --windows of them from each trace's start)")
+      ->check(finite_in(0.1, 60.0, "s"));
+  // Each window is fitted alone too: how far their answers disagree is the sd a model error shows.
+  cmd->add_option("--windows", o->windows, "windows per trace, consecutive from its start (the fit's span: window x windows)")
+      ->check(CLI::Range(1, 60));
   cmd->add_option("--contact-weight", o->contact_weight, "weight of a tick's contact mismatch (0: contacts left out)")
       ->check(finite_in(0.0, 100.0, ""));
   cmd->add_option("--force-scale", o->force_scale, "foot-force misfit counted as one unit, N (0: forces left out)")
@@ -172,7 +192,7 @@ void add_calibrate_command(CLI::App& app) {
       sim::TerrainSpec terrain = sim::TerrainSpec::parse(o->terrain);
       terrain.treadmill_speed_mps = o->treadmill_mps;
       for (const auto& path : o->traces) {
-        source.traces.push_back(cal::prepare_trace(cal::read_trace_csv(path), params, settings, terrain, o->seed, o->window_s));
+        source.traces.push_back(cal::prepare_trace(cal::read_trace_csv(path), params, settings, terrain, o->seed, o->window_s * o->windows));
       }
       source.names = o->traces;
     } else {
@@ -183,7 +203,7 @@ void add_calibrate_command(CLI::App& app) {
       }
       if (!std::filesystem::exists(o->store)) throw InputError(fmt::format("--store {}: no such file", o->store));
       const study::StudyStore store(o->store, study::kReadOnly);
-      cal::StudyTraces st = cal::load_study_traces(store, o->study_id, o->window_s);
+      cal::StudyTraces st = cal::load_study_traces(store, o->study_id, o->window_s * o->windows);
       for (const auto& why : st.skipped) {
         if (!o->json) fmt::print("skipped {}\n", why);
       }
@@ -234,6 +254,7 @@ void add_calibrate_command(CLI::App& app) {
     options.relative_step = o->relative_step;
     options.max_iterations = o->max_iterations;
     options.grid_points = o->grid_points;
+    options.windows_per_trace = static_cast<std::size_t>(o->windows);
     cal::Calibration calibration(start, std::move(source.traces), options);
     if (!o->scan.empty() && !o->json) print_scan(calibration, start, values, o->scan);
     const cal::CalibrationResult result = calibration.solve();

@@ -40,9 +40,10 @@ std::string indent_of(const std::string& line) { return line.substr(0, line.find
 }  // namespace
 
 std::string calibrated_source(const FittedValue& v, const CalibrationResult& r, const std::string& previous_source) {
-  return fmt::format("calibrated: estimate {:.6g} +- {:.3g} (1 sd) {}, from {:.6g}; cost {:.6g} -> {:.6g}{}{}", v.estimate,
-                     v.standard_deviation, v.unit, v.initial, r.cost_before, r.cost_after,
-                     v.at_bound ? "; AT ITS PHYSICAL BOUND" : "",
+  return fmt::format("calibrated: estimate {:.6g} +- {:.3g} (1 sd, {}) {}, from {:.6g}; cost {:.6g} -> {:.6g}{}{}{}",
+                     v.estimate, v.standard_deviation, v.sd_from == "windows" ? "the windows' spread" : "covariance",
+                     v.unit, v.initial, r.cost_before, r.cost_after, v.at_bound ? "; AT ITS PHYSICAL BOUND" : "",
+                     v.identifiable ? "" : "; NOT IDENTIFIABLE: " + without_double_quotes(v.not_identifiable_reason),
                      previous_source.empty() ? "" : "; before: " + without_double_quotes(previous_source));
 }
 
@@ -56,8 +57,13 @@ std::string calibration_header(const std::string& model_source, const Calibratio
                      result.cost_before, result.cost_after);
   out << "# RMS misfit before: " << rms_summary(result.rms_before) << "\n";
   out << "# RMS misfit after:  " << rms_summary(result.rms_after) << "\n";
-  out << "# Standard deviations: Ceres covariance scaled by the fit's residual variance; consecutive ticks are\n"
-         "# correlated, so they are lower bounds on the real uncertainty (docs/calibration.md).\n";
+  if (result.window_count >= 2) {
+    out << fmt::format("# Standard deviations: the larger of Ceres' covariance (scaled by the fit's residual variance) and\n"
+                       "# the spread of {} windows fitted alone, each note says which (docs/calibration.md).\n", result.window_count);
+  } else {
+    out << "# Standard deviations: Ceres covariance scaled by the fit's residual variance, no windows to compare;\n"
+           "# consecutive ticks are correlated, so they are lower bounds on the real uncertainty (docs/calibration.md).\n";
+  }
   return out.str();
 }
 

@@ -9,6 +9,8 @@
 
 #include "cpgmatch/calibration/replay_cache.hpp"
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/calibration/uncertainty.hpp"
+#include "cpgmatch/calibration/window_fits.hpp"
 
 namespace cpgmatch::calibration {
 namespace {
@@ -113,7 +115,7 @@ struct Calibration::Impl {
     ceres::NumericDiffOptions diff;
     diff.relative_step_size = options.relative_step;
     for (std::size_t k = 0; k < traces.size(); ++k) {
-      for (std::size_t tick = 0; tick < traces[k].measured.ticks.size(); ++tick) {
+      for (std::size_t tick = traces[k].first_fitted_tick; tick < traces[k].measured.ticks.size(); ++tick) {
         auto* cost = new ceres::DynamicNumericDiffCostFunction<TickResiduals, ceres::CENTRAL>(
             new TickResiduals(*cache, traces[k].measured, k, tick, options.scales), ceres::TAKE_OWNERSHIP, diff);
         cost->AddParameterBlock(static_cast<int>(n));
@@ -161,7 +163,7 @@ struct Calibration::Impl {
     }
     std::size_t ticks = 0, leg_ticks = 0;
     for (std::size_t k = 0; k < traces.size(); ++k) {
-      for (std::size_t i = 0; i < traces[k].measured.ticks.size(); ++i) {
+      for (std::size_t i = traces[k].first_fitted_tick; i < traces[k].measured.ticks.size(); ++i) {
         accumulate(sum, traces[k].measured.ticks[i], (*replays)[k].ticks[i]);
         ++ticks;
         leg_ticks += traces[k].measured.ticks[i].legs.size();
@@ -172,24 +174,27 @@ struct Calibration::Impl {
             std::sqrt(sum.speed_mps / ticks), sum.contact_mismatch / legs, std::sqrt(sum.foot_force_n / legs)};
   }
 
-  // Standard deviations of the values (their units), or NaN where the Jacobian is rank deficient.
-  std::vector<double> standard_deviations(double final_cost, std::size_t residuals) {
+  // The covariance of the values (their units, n x n row-major), or all NaN where the Jacobian is rank
+  // deficient.
+  std::vector<double> covariance_matrix(double final_cost, std::size_t residuals) {
     const std::size_t n = x.size();
-    std::vector<double> sd(n, std::numeric_limits<double>::quiet_NaN());
+    std::vector<double> out(n * n, std::numeric_limits<double>::quiet_NaN());
     ceres::Covariance::Options co;
     co.algorithm_type = ceres::DENSE_SVD;  // says "rank deficient" instead of failing on a singular J'J
     ceres::Covariance covariance(co);
     const std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
-    if (!covariance.Compute(blocks, &problem)) return sd;
+    if (!covariance.Compute(blocks, &problem)) return out;
     std::vector<double> c(n * n);
-    if (!covariance.GetCovarianceBlock(x.data(), x.data(), c.data())) return sd;
+    if (!covariance.GetCovarianceBlock(x.data(), x.data(), c.data())) return out;
     // Ceres assumes the residuals' scales are their true standard deviations; they are guesses, so the
-    // covariance is scaled by the fit's own residual variance (reduced chi-square), as for any
-    // least-squares fit with unknown noise.
+    // covariance is scaled by the fit's own residual variance, sigma^2 = SSR / (residuals - values) with
+    // SSR = 2 cost (the robustified sum), as for any least-squares fit with unknown noise.
     const double dof = static_cast<double>(residuals) - static_cast<double>(n);
     const double variance = dof > 0.0 ? 2.0 * final_cost / dof : std::numeric_limits<double>::quiet_NaN();
-    for (std::size_t i = 0; i < n; ++i) sd[i] = std::sqrt(c[i * n + i] * variance) * scales[i];
-    return sd;
+    for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t j = 0; j < n; ++j) out[i * n + j] = c[i * n + j] * variance * scales[i] * scales[j];
+    }
+    return out;
   }
 };
 
@@ -215,6 +220,7 @@ CalibrationResult Calibration::solve() {
   result.rms_before = m.rms();
   m.grid_search();
   for (std::size_t i = 0; i < m.x.size(); ++i) result.solver_start.push_back(m.x[i] * m.scales[i]);
+  const std::vector<double> solver_start_x = m.x;
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = m.options.max_iterations;
@@ -231,16 +237,29 @@ CalibrationResult Calibration::solve() {
   result.iterations = static_cast<int>(summary.iterations.size()) - 1;
   result.converged = summary.termination_type == ceres::CONVERGENCE;
   result.solver_report = summary.BriefReport();
-  const std::vector<double> sd = m.standard_deviations(result.cost_after, result.residual_count);
+  const std::vector<double> covariance = m.covariance_matrix(result.cost_after, result.residual_count);
   result.model = m.cache->model_at(m.x.data());
   for (std::size_t i = 0; i < m.x.size(); ++i) {
     const ModelValue& v = *m.options.values[i];
-    FittedValue f{v.name, v.unit, v.get(m.start), v.get(result.model), sd[i], v.lower, v.upper, false};
+    FittedValue f;
+    f.name = v.name;
+    f.unit = v.unit;
+    f.initial = v.get(m.start);
+    f.estimate = v.get(result.model);
+    f.lower = v.lower;
+    f.upper = v.upper;
     const double tolerance = 1e-6 * (v.upper - v.lower);
     f.at_bound = f.estimate <= v.lower + tolerance || f.estimate >= v.upper - tolerance;
     result.values.push_back(f);
   }
   result.simulations = m.cache->replays_run();
+  std::vector<std::vector<double>> window_rows;
+  if (m.options.estimate_spread) {
+    const std::vector<CalibrationTrace> windows = cut_windows(m.traces, m.options.windows_per_trace);
+    if (windows.size() >= 2) window_rows = window_estimates(m.cache->model_at(solver_start_x.data()), windows, m.options);
+    result.window_count = windows.size() >= 2 ? windows.size() : 0;
+  }
+  settle_uncertainty(result.values, covariance, window_rows);
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
 }

@@ -153,7 +153,10 @@ StrategyRun calibrate_then_transfer(const CalibrateThenTransfer& setup, const Si
                         {"estimate", r.values[i].estimate},
                         {"sd", r.values[i].standard_deviation},
                         {"relative_error", (r.values[i].estimate - truth) / truth},
-                        {"at_bound", r.values[i].at_bound}});
+                        {"at_bound", r.values[i].at_bound},
+                        {"sd_from", r.values[i].sd_from},
+                        {"identifiable", r.values[i].identifiable},
+                        {"not_identifiable_reason", r.values[i].not_identifiable_reason}});
     }
     details["calibration"] = {{"values", fitted},
                               {"cost_before", r.cost_before},

@@ -18,6 +18,9 @@ struct CalibrationTrace {
   MeasuredTrace measured;
   CommandSequence commands;
   ReplaySetup setup;
+  // The first tick whose residuals count: a window later in the trace is replayed from the trace's start
+  // (the plant cannot be set to a measured state mid-rollout), and only its own ticks are fitted.
+  std::size_t first_fitted_tick = 0;
 };
 
 // Builds one from a measured trace and the CPG parameters and rollout settings it was made with (checks
@@ -40,6 +43,12 @@ struct CalibrationOptions {
   // only past a threshold (a foot slides only when friction is below what the gait asks of it), so the
   // cost is flat on one side of the answer and a gradient method started there never moves.
   int grid_points = 0;
+  // Each trace's ticks are cut into this many consecutive windows of equal length, and the fit is repeated
+  // on each window alone (started from the joint answer) to see how far the windows disagree (the spread,
+  // FittedValue::window_sd). 1: one window per trace, so the spread is over traces.
+  std::size_t windows_per_trace = 3;
+  // False skips the per-window fits (no spread; the per-window fits themselves run so).
+  bool estimate_spread = true;
 };
 
 // The RMS of each channel's misfit over every tick, in the channel's own unit.
@@ -57,12 +66,22 @@ struct FittedValue {
   std::string unit;
   double initial = 0.0;
   double estimate = 0.0;
-  // One standard deviation from Ceres' covariance, scaled by the fit's own residual variance (reduced
-  // chi-square): NaN when the values are not identifiable from these traces (a singular Jacobian).
+  // One standard deviation: the larger of covariance_sd and window_sd (sd_from says which). The covariance
+  // counts only the residuals' noise; the windows' disagreement counts a model that explains each stretch
+  // of the trace with another value. NaN when not identifiable for a singular covariance, a bound or a
+  // correlated pair (uncertainty.hpp); kept when the reason is only its size.
   double standard_deviation = 0.0;
   double lower = 0.0;
   double upper = 0.0;
   bool at_bound = false;
+  double covariance_sd = 0.0;  // Ceres' covariance x sigma^2 = SSR / (residuals - values); NaN when singular
+  std::vector<double> window_estimates;  // one per window (per trace when one window each)
+  double window_sd = 0.0;  // their standard deviation (NaN for fewer than 2)
+  double window_se = 0.0;  // window_sd / sqrt(count): the standard error of their mean (reported, not used: see uncertainty.cpp)
+  std::string sd_from;     // "covariance" or "windows": which one standard_deviation is
+  bool identifiable = true;
+  // Why not: a singular covariance, a bound, a value it cannot tell from another, an sd over a quarter of it.
+  std::string not_identifiable_reason;
 };
 
 struct CalibrationResult {
@@ -74,7 +93,8 @@ struct CalibrationResult {
   ChannelRms rms_after;
   std::size_t residual_count = 0;
   int iterations = 0;
-  long simulations = 0;        // replays run (each trace counts once), the grid's included
+  long simulations = 0;        // replays run (each trace counts once), the grid's included, the windows' not
+  std::size_t window_count = 0;  // windows fitted alone for the spread (0: none, fewer than 2)
   std::vector<double> solver_start;  // where the local solve started (the start model's values unless a grid moved them)
   double wall_time_s = 0.0;
   bool converged = false;
