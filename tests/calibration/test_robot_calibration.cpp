@@ -20,6 +20,7 @@
 #include "cpgmatch/sim/planar_leg_model.hpp"
 #include "cpgmatch/study/robot_file.hpp"
 #include "cpgmatch/study/spec_rollout.hpp"
+#include "synthetic_traces.hpp"
 
 namespace cpgmatch::calibration {
 namespace {
@@ -52,21 +53,8 @@ sim::PlanarLegModel changed_robot(const std::string& robot, const std::string& y
   return sim::planar_leg_model(parse_robot(yaml, "changed robot.yaml", urdf, "changed robot.urdf"));
 }
 
-// As the Morti test's: encoder and IMU noise, FootTile noise and the CAN protocol's 0.38 mrad steps.
-void add_sensor_noise(MeasuredTrace& trace, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> joint(0.0, 0.005), pitch(0.0, 0.003), speed(0.0, 0.02), force(0.0, 0.3);
-  const auto quantise = [](double rad) { return std::round(rad / 3.8e-4) * 3.8e-4; };
-  for (auto& tick : trace.ticks) {
-    tick.pitch_rad += pitch(rng);
-    tick.vx_mps += speed(rng);
-    for (auto& leg : tick.legs) {
-      leg.hip_rad = quantise(leg.hip_rad + joint(rng));
-      leg.knee_rad = quantise(leg.knee_rad + joint(rng));
-      leg.foot_force_n += force(rng);
-    }
-  }
-}
+// The sensor noise a robot adds: synthetic_traces.hpp's, as for Morti's tests.
+using synthetic::add_sensor_noise;
 
 // A store holding one study of `spec` whose hardware rollouts (one per seed, 3 s, the spec's base gait with the
 // hip amplitude varied) ran on `hardware`: trials reported and traces kept as the optimizer keeps them.
