@@ -70,8 +70,7 @@ struct Options {
 bool names_robot_description(const std::string& body) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  const bool plain_name = body.find('/') == std::string::npos && body.find('.') == std::string::npos;
-  if (fs::is_directory(body, ec) || (plain_name && !fs::exists(body, ec))) return true;
+  if (fs::is_directory(body, ec) || (names_shipped_robot(body) && !fs::exists(body, ec))) return true;
   const YamlReader yaml = YamlReader::from_file(body);
   return yaml.has("legs") || yaml.has("base");  // a robot.yaml or an overlay on one
 }

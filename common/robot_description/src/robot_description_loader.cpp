@@ -318,12 +318,15 @@ std::vector<std::string> shipped_robot_names() {
   return names;
 }
 
+bool names_shipped_robot(const std::string& name_or_path) {
+  return name_or_path.find('/') == std::string::npos && name_or_path.find('.') == std::string::npos;
+}
+
 RobotDescription load_robot(const std::string& name_or_path) { return detail::load_robot_at_depth(name_or_path, 0); }
 
 RobotDescription detail::load_robot_at_depth(const std::string& name_or_path, int depth) {
   fs::path yaml_path(name_or_path);
-  const bool plain_name = name_or_path.find('/') == std::string::npos && name_or_path.find('.') == std::string::npos;
-  if (plain_name && !fs::exists(yaml_path)) {
+  if (names_shipped_robot(name_or_path) && !fs::exists(yaml_path)) {
     yaml_path = shipped_robots_dir() / name_or_path / "robot.yaml";
     if (!fs::exists(yaml_path)) {
       std::string known;

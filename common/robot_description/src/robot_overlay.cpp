@@ -9,6 +9,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/split.hpp"
 #include "cpgmatch/robot_description_loader.hpp"
 
 namespace cpgmatch::detail {
@@ -20,14 +21,8 @@ namespace fs = std::filesystem;
 constexpr int kMaxOverlayDepth = 8;
 
 std::vector<std::string> split_path(const std::string& path) {
-  std::vector<std::string> parts;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t dot = path.find('.', start);
-    parts.push_back(path.substr(start, dot == std::string::npos ? std::string::npos : dot - start));
-    if (dot == std::string::npos) return parts;
-    start = dot + 1;
-  }
+  const std::vector<std::string_view> steps = split_on(path, '.');
+  return {steps.begin(), steps.end()};
 }
 
 // The element of a list whose `name` is `name` (legs, parallel springs), else nullopt.
@@ -100,9 +95,8 @@ RobotDescription load_robot_overlay(const YamlReader& overlay, const fs::path& o
   const std::string base_name = overlay.require_string("base");
   // A plain name is a shipped robot unless such a file or folder is beside the overlay (as for load_robot).
   const fs::path beside = overlay_path.parent_path() / base_name;
-  const bool plain_name = base_name.find('/') == std::string::npos && base_name.find('.') == std::string::npos;
   std::error_code ec;
-  const std::string base_ref = (plain_name && !fs::exists(beside, ec)) ? base_name : beside.string();
+  const std::string base_ref = (names_shipped_robot(base_name) && !fs::exists(beside, ec)) ? base_name : beside.string();
   RobotDescription base;
   try {
     base = load_robot_at_depth(base_ref, depth + 1);
@@ -110,13 +104,13 @@ RobotDescription load_robot_overlay(const YamlReader& overlay, const fs::path& o
     overlay.fail("base", e.what());
   }
 
+  // Without `set:` the overlay is its base under another name or summary; `set` then only names the overlay.
+  const YamlReader set = overlay.has("set") ? overlay.child("set") : overlay;
   std::vector<Setting> settings;
   if (overlay.has("set")) {
-    const YamlReader set = overlay.child("set");
     set.check_keys();
     for (const auto& entry : set.node()) settings.push_back({entry.first.as<std::string>(), entry.second});
   }
-  const YamlReader set = overlay.has("set") ? overlay.child("set") : overlay;
   YAML::Node base_tree = YAML::Load(base.yaml_text);
   if (overlay.has("name")) base_tree["name"] = overlay.require_string("name");
   if (overlay.has("summary")) base_tree["summary"] = overlay.require_string("summary");
@@ -125,8 +119,7 @@ RobotDescription load_robot_overlay(const YamlReader& overlay, const fs::path& o
   const std::string text = fmt::format("# {}: the robot {} with the values the overlay sets\n{}", overlay_path.string(),
                                        base.yaml_source, merged_text(base_tree, settings, settings.size(), set));
   try {
-    RobotDescription robot = parse_robot(text, source, base.urdf_text, base.urdf_source);
-    return robot;
+    return parse_robot(text, source, base.urdf_text, base.urdf_source);
   } catch (const InputError& whole) {
     // Name the overlay's own line: the first setting after which the base no longer checks.
     for (std::size_t count = 1; count <= settings.size(); ++count) {

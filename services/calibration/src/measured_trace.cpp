@@ -8,20 +8,12 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/split.hpp"
 
 namespace cpgmatch::calibration {
 namespace {
 
-std::vector<std::string_view> split_cells(std::string_view line) {
-  std::vector<std::string_view> cells;
-  std::size_t start = 0;
-  while (true) {
-    const std::size_t comma = line.find(',', start);
-    cells.push_back(line.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start));
-    if (comma == std::string_view::npos) return cells;
-    start = comma + 1;
-  }
-}
+std::vector<std::string_view> split_cells(std::string_view line) { return split_on(line, ','); }
 
 // Column positions of the header, by the names make_csv_trace writes.
 class Columns {

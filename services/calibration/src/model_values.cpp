@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "cpgmatch/errors.hpp"
+#include "cpgmatch/split.hpp"
 
 namespace cpgmatch::calibration {
 
@@ -70,18 +71,14 @@ const ModelValue& find_model_value(const std::string& name) {
 
 std::vector<const ModelValue*> parse_model_value_list(const std::string& comma_separated) {
   std::vector<const ModelValue*> out;
-  std::size_t start = 0;
-  while (start <= comma_separated.size()) {
-    const std::size_t comma = comma_separated.find(',', start);
-    const std::string name = comma_separated.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+  for (const std::string_view part : split_on(comma_separated, ',')) {
+    const std::string name(part);
     if (name.empty()) throw InputError(fmt::format("'{}': an empty name in the list", comma_separated));
     const ModelValue* value = &find_model_value(name);
     if (std::find(out.begin(), out.end(), value) != out.end()) {
       throw InputError(fmt::format("'{}' is named twice", name));
     }
     out.push_back(value);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
   }
   return out;
 }

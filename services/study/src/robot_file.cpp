@@ -14,10 +14,6 @@
 
 namespace cpgmatch::study {
 
-bool names_shipped_robot(const std::string& robot) {
-  return robot.find('/') == std::string::npos && robot.find('.') == std::string::npos;
-}
-
 namespace {
 
 // A text as a YAML double-quoted scalar (a JSON string is one); `what` names it when it is not UTF-8.

@@ -18,6 +18,10 @@ std::filesystem::path shipped_robots_dir();
 // Names of the shipped robots (folders of shipped_robots_dir() that hold a robot.yaml), sorted.
 std::vector<std::string> shipped_robot_names();
 
+// True when `name_or_path` can name a shipped robot (a plain name: no '/', no '.'), false for a path. A plain
+// name that is also a file or folder where it is looked for means that file (the user's own robot wins).
+bool names_shipped_robot(const std::string& name_or_path);
+
 // `name_or_path`: a shipped robot's name ("morti"), a folder holding robot.yaml, or a robot.yaml path.
 // The URDF is the file robot.yaml's `urdf:` key names, relative to robot.yaml's folder. The path may also be
 // an overlay, a robot.yaml with `base:` and `set:` that changes a few of another robot's values (the

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "cpgmatch/bo/search_space.hpp"
-#include "cpgmatch/robot_description.hpp"
+#include "cpgmatch/robot_description_loader.hpp"  // names_shipped_robot, with the description
 
 namespace cpgmatch::study {
 
@@ -19,8 +19,7 @@ namespace cpgmatch::study {
 inline constexpr const char* kRobotYamlTextKey = "robot_yaml_text";
 inline constexpr const char* kRobotUrdfTextKey = "robot_urdf_text";
 
-// True when a `robot:` value can name a shipped robot (a plain name: no '/', no '.'), false for a path.
-bool names_shipped_robot(const std::string& robot);
+// Whether a `robot:` value names a shipped robot: cpgmatch::names_shipped_robot (robot_description_loader.hpp).
 
 // When the study file's `robot` is a path (or a plain name of a folder beside the study file): the study text with the robot's robot.yaml and URDF texts
 // appended under kRobotYamlTextKey and kRobotUrdfTextKey (the study's own lines unchanged). Otherwise the text
