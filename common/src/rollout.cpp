@@ -26,7 +26,8 @@ int divider(double base_rate_hz, double rate_hz, const char* what) {
 }
 
 bool finite_state(const PlantState& s) {
-  return std::isfinite(s.trunk.x_m) && std::isfinite(s.trunk.height_m) && std::isfinite(s.trunk.pitch_rad);
+  return std::isfinite(s.trunk.x_m) && std::isfinite(s.trunk.height_m) && std::isfinite(s.trunk.pitch_rad) &&
+         std::isfinite(s.trunk.roll_rad) && std::isfinite(s.trunk.lateral_m);
 }
 
 // Rates no 4-kg legged body reaches, falling included: a trunk tipping over under gravity turns at a few
@@ -44,17 +45,19 @@ struct TimedTrunk {
 // Why a state is not a physical one (non-finite, or reached from the previous tick impossibly fast).
 std::optional<std::string> impossible_motion(const TimedTrunk& previous, const PlantState& s) {
   if (!finite_state(s)) {
-    return fmt::format("non-finite trunk state (x {}, height {}, pitch {})", s.trunk.x_m, s.trunk.height_m,
-                       s.trunk.pitch_rad);
+    return fmt::format("non-finite trunk state (x {}, height {}, pitch {}, roll {}, lateral {})", s.trunk.x_m,
+                       s.trunk.height_m, s.trunk.pitch_rad, s.trunk.roll_rad, s.trunk.lateral_m);
   }
   const double dt = s.time_s - previous.time_s;
   if (previous.time_s < 0.0 || !(dt > 0.0)) return std::nullopt;
-  const double pitch_rate = std::abs(s.trunk.pitch_rad - previous.trunk.pitch_rad) / dt;
+  // A free robot's roll is held to the same bound as its pitch (0 on a rail).
+  const double pitch_rate = std::max(std::abs(s.trunk.pitch_rad - previous.trunk.pitch_rad),
+                                     std::abs(s.trunk.roll_rad - previous.trunk.roll_rad)) / dt;
   const double speed = std::hypot(s.trunk.x_m - previous.trunk.x_m, s.trunk.height_m - previous.trunk.height_m) / dt;
   if (pitch_rate > kMaxPlausiblePitchRate_rad_s) {
-    return fmt::format("trunk pitch moved {:.3f} rad in {:.1f} ms ({:.0f} rad/s; a body of this size turns at most a "
+    return fmt::format("trunk pitch or roll moved {:.3f} rad in {:.1f} ms ({:.0f} rad/s; a body of this size turns at most a "
                        "few rad/s)",
-                       s.trunk.pitch_rad - previous.trunk.pitch_rad, dt * 1e3, pitch_rate);
+                       pitch_rate * dt, dt * 1e3, pitch_rate);
   }
   if (speed > kMaxPlausibleTrunkSpeed_m_s) {
     return fmt::format("trunk moved {:.3f} m in {:.1f} ms ({:.0f} m/s)", speed * dt, dt * 1e3, speed);
@@ -171,7 +174,10 @@ RolloutResult run_rollout(Plant& plant, const CpgParameters& params, const Rollo
         break;
       }
       previous_trunk = {state.time_s, state.trunk};
+      // A trunk tilted past the limit either way has fallen: pitched (any robot) or rolled onto its side (a
+      // robot free in 3D; a rail holds roll at 0).
       const bool fell = std::abs(state.trunk.pitch_rad) > settings.cost.fall_max_abs_pitch_rad ||
+                        std::abs(state.trunk.roll_rad) > settings.cost.fall_max_abs_pitch_rad ||
                         state.trunk.height_m < std::min(settings.cost.fall_min_height_m, 0.5 * start_height);
       if (fell) {
         result.outcome = RolloutOutcome::kFell;
@@ -363,7 +369,8 @@ TraceSink make_csv_trace(const std::string& path, const std::vector<std::string>
   // The motors' output speeds (for their power, energy.hpp) after every leg's block, so older readers
   // that count columns still find theirs.
   for (const auto& leg : leg_names) *out << fmt::format(",{0}_hip_speed_rad_s,{0}_knee_motor_speed_rad_s", leg);
-  *out << '\n';
+  // A free robot's roll, heading and sideways drift (0 on a rail), last for the same reason.
+  *out << ",roll_rad,yaw_rad,lateral_m\n";
   return [out](const TraceSample& s) {
     const auto& st = *s.state;
     *out << fmt::format("{:.4f},{:.5f},{:.5f},{:.5f},{:.5f}", s.time_s, st.trunk.x_m, st.trunk.height_m,
@@ -379,7 +386,7 @@ TraceSink make_csv_trace(const std::string& path, const std::vector<std::string>
                           a.late_toeoff);
     }
     for (const auto& ls : st.legs) *out << fmt::format(",{:.4f},{:.4f}", ls.hip_speed_rad_s, ls.knee_motor_speed_rad_s);
-    *out << '\n';
+    *out << fmt::format(",{:.5f},{:.5f},{:.5f}\n", st.trunk.roll_rad, st.trunk.yaw_rad, st.trunk.lateral_m);
   };
 }
 

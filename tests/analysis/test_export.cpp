@@ -7,6 +7,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <sstream>
@@ -299,6 +300,61 @@ TEST_F(RobotExportTest, AnOldFourLegStoreExportsTheColumnsItDidThenMortisLegs) {
   const auto row = cells(lines[1]);
   ASSERT_EQ(row.size(), cells(before).size() + legs.size());
   EXPECT_EQ(row[cells(before).size() + 3 * 8], "13") << "HR's hip";
+}
+
+// A transfer study's hardware proposals keep their safety check (issue 33): exported after every other column
+// (each earlier one in its place), in the JSON under each hardware trial, as Optuna user attributes; the
+// exploration trials leave them empty.
+TEST_F(ExportTest, AHardwareProposalsSafetyCheckIsExportedLastAndOnlyWhereThereIsOne) {
+  std::string header_before;
+  {
+    const auto before = csv_lines(all());
+    header_before = before.at(0);
+  }
+  {
+    study::StudyStore store(store_path_);
+    study::StoredTrial first, later;
+    first.trial_id = 5;
+    first.x = Eigen::VectorXd::Constant(6, 0.3);
+    first.phase = "hardware";
+    first.proposal = study::HardwareProposalRecord{0.05, true, 1.2, std::nullopt, true, "simulation_optimum"};
+    later = first;
+    later.trial_id = 6;
+    later.proposal = study::HardwareProposalRecord{0.15, true, 1.4, 1.32, false, "lowest_bound"};
+    store.add_trials(1, {first, later});
+  }
+  const auto studies = all();
+  const auto& trials = studies.at(0).trials;
+  ASSERT_EQ(trials.size(), 7u);
+  EXPECT_TRUE(trials[0].hardware_proposal.is_null());
+  EXPECT_EQ(trials[6].hardware_proposal["cost_limit"], 1.32);
+  EXPECT_TRUE(trials[5].hardware_proposal["cost_limit"].is_null());
+  const auto lines = csv_lines(studies);
+  ASSERT_EQ(lines[0].rfind(header_before + ",", 0), 0u) << lines[0];
+  EXPECT_EQ(lines[0].substr(header_before.size()),
+            ",hardware_proposal.fall_probability,hardware_proposal.within_fall_limit,hardware_proposal.cost_bound,"
+            "hardware_proposal.cost_limit,hardware_proposal.within_cost_bound,hardware_proposal.basis");
+  const auto header = cells(lines[0]);
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    // (cells() splits at every comma: the crashed trial's quoted error has one)
+    if (lines[i].find('"') == std::string::npos) ASSERT_EQ(cells(lines[i]).size(), header.size()) << lines[i];
+  }
+  auto value = [&](std::size_t line, const std::string& column) {
+    const auto row = cells(lines.at(line));
+    return row.at(static_cast<std::size_t>(std::find(header.begin(), header.end(), column) - header.begin()));
+  };
+  EXPECT_EQ(value(1, "hardware_proposal.basis"), "");
+  EXPECT_EQ(value(6, "hardware_proposal.basis"), "simulation_optimum");
+  EXPECT_EQ(value(6, "hardware_proposal.cost_limit"), "");
+  EXPECT_EQ(value(7, "hardware_proposal.cost_limit"), "1.32");
+  EXPECT_EQ(value(7, "hardware_proposal.within_cost_bound"), "false");
+  const auto json = export_json(studies);
+  const auto& rows = json["studies"][0]["trials"];
+  EXPECT_FALSE(rows[0].contains("hardware_proposal"));
+  EXPECT_EQ(rows[6]["hardware_proposal"]["basis"], "lowest_bound");
+  std::ostringstream journal;
+  write_optuna_journal(studies, journal);
+  EXPECT_NE(journal.str().find("\"hardware_proposal.basis\":\"lowest_bound\""), std::string::npos);
 }
 
 }  // namespace

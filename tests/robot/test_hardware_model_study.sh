@@ -42,6 +42,15 @@ n=$(sql "$WORK/s.db" "select count(*) from trials where phase='hardware' and sta
 state=$(sql "$WORK/s.db" "select hardware_state_json from model_states where study_id=1")
 [[ $(json_field "$state" simulation_observations) == 10 && $(json_field "$state" hardware_observations) == 3 ]] \
   || fail "the hardware model does not hold both sources: $state"
+# Issue 33: the first robot rollout is a simulated trial's own point (the best that walked, told by then),
+# and every hardware trial, those proposed after the kill -9 too, keeps the safety check it was sent with.
+first_hw=$(sql "$WORK/s.db" "select trial_id from trials where phase='hardware' order by trial_id limit 1")
+[[ $(sql "$WORK/s.db" "select proposal_basis from trials where trial_id=$first_hw") == simulation_optimum ]] \
+  || fail "the first hardware trial ($first_hw) is not the simulation's best: $(sql "$WORK/s.db" "select proposal_basis from trials where trial_id=$first_hw")"
+[[ $(sql "$WORK/s.db" "select count(*) from trials e join trials h on e.x_json = h.x_json where h.trial_id=$first_hw and e.phase='exploration' and e.ok") -ge 1 ]] \
+  || fail "the first hardware point is no simulated trial's point"
+[[ $(sql "$WORK/s.db" "select count(*) from trials where phase='hardware' and (proposal_basis is null or proposal_fall_probability is null)") == 0 ]] \
+  || fail "a hardware trial without its safety check"
 answer=$(json_field "$st" recommended_trial)
 [[ $(sql "$WORK/s.db" "select phase from trials where trial_id=$answer") == hardware ]] \
   || fail "the answer (trial $answer) is not a hardware trial: $st"

@@ -5,15 +5,22 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <mutex>
 #include <set>
 #include <thread>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "cpgmatch/bo/model_state_json.hpp"
+#include "cpgmatch/params.hpp"
+#include "cpgmatch/rollout.hpp"
 #include "cpgmatch/service/coordinator.hpp"
+#include "cpgmatch/study/study_spec.hpp"
 #include "coordinator_test_support.hpp"
 
 namespace cpgmatch::service {
@@ -48,6 +55,13 @@ std::vector<const study::StoredTrial*> phase(const study::StoredStudy& s, const 
   for (const auto& t : s.trials) {
     if (t.phase == p) out.push_back(&t);
   }
+  return out;
+}
+
+// The hardware points of a study, in trial order.
+std::vector<Eigen::VectorXd> hardware_points_of(const study::StoredStudy& s) {
+  std::vector<Eigen::VectorXd> out;
+  for (const auto* t : phase(s, "hardware")) out.push_back(t->x);
   return out;
 }
 
@@ -129,6 +143,8 @@ class HardwareModelTest : public test_support::CoordinatorFixture {
     open();
     coordinator_->resume_from_store(now_);
     restarted_with_hardware_done_ = hardware_done();
+    restarted_with_hardware_stored_ = 0;
+    for (const auto& st : store_->load_all()) restarted_with_hardware_stored_ += static_cast<int>(phase(st, "hardware").size());
     heartbeat();
     out_.candidates = unanswered;
   }
@@ -142,7 +158,16 @@ class HardwareModelTest : public test_support::CoordinatorFixture {
   // Runs a study to its end and checks what every such study must satisfy; returns the stored study.
   study::StoredStudy run_to_the_end(const std::string& strategy, int hardware_budget, int restart_at_round = -1,
                                     bool restart_in_flight = false) {
-    const int id = submit(study_yaml(strategy, hardware_budget));
+    int id = 0;
+    if (enqueue_.empty()) {
+      id = submit(study_yaml(strategy, hardware_budget));
+    } else {
+      domain::StudyCommand c = test_support::submit_command(study_yaml(strategy, hardware_budget), ++correlation_);
+      c.enqueue = enqueue_;
+      coordinator_->handle_command(c, now_);
+      EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
+      id = static_cast<int>(out_.replies.back().study_id);
+    }
     run(60, restart_at_round, restart_in_flight);
     const auto s = store_->load(id);
     if (!s) {
@@ -150,7 +175,8 @@ class HardwareModelTest : public test_support::CoordinatorFixture {
       return {};
     }
     EXPECT_EQ(s->state, "done") << s->message;
-    const auto explored = phase(*s, "exploration");
+    auto explored = phase(*s, "exploration");
+    for (const auto* t : phase(*s, study::kPhaseEnqueued)) explored.push_back(t);  // simulated trials too
     const auto hardware = phase(*s, "hardware");
     EXPECT_EQ(explored.size(), 12u);
     EXPECT_EQ(hardware.size(), static_cast<std::size_t>(hardware_budget));  // the hardware budget, not one more
@@ -169,6 +195,7 @@ class HardwareModelTest : public test_support::CoordinatorFixture {
   }
 
   bool robot_ = true;
+  std::vector<domain::EnqueuedGait> enqueue_;  // gaits queued at submit
   int model_threads_ = 0;  // 0: model jobs inline
   std::mutex jobs_mutex_;
   std::set<std::thread::id> job_threads_;  // where model jobs ran
@@ -176,7 +203,7 @@ class HardwareModelTest : public test_support::CoordinatorFixture {
   std::function<bool(const domain::Candidate&)> robot_falls;
   bool fault_first_robot_candidate_ = false;
   int robot_candidates_ = 0, sim_reports_ = 0, sim_reports_at_first_robot_candidate_ = -1;
-  int restarted_with_hardware_done_ = -1;
+  int restarted_with_hardware_done_ = -1, restarted_with_hardware_stored_ = -1;
 };
 
 // The checks of a finished study's answer and its hardware model, for either strategy.
@@ -207,6 +234,47 @@ void expect_the_answer_is_the_robots(const study::StoredStudy& s, const domain::
   EXPECT_TRUE(state.have_hyperparameters);
 }
 
+// The first hardware trial is the transferred simulated optimum: exactly the point of a simulated trial that
+// walked, none of the initial design (all told before the first hardware ask) cheaper. Every hardware trial
+// keeps its safety check; after the first, against (1 + margin) times the best robot cost reported before it.
+void expect_the_robot_starts_from_the_simulations_best(const study::StoredStudy& s, double margin = 0.1) {
+  const auto hardware = phase(s, "hardware");
+  ASSERT_FALSE(hardware.empty());
+  const study::StoredTrial& first = *hardware.front();
+  const study::StoredTrial* source = nullptr;
+  for (const auto& t : s.trials) {
+    if (t.phase != "hardware" && t.x == first.x) source = &t;
+  }
+  ASSERT_NE(source, nullptr) << "the first robot point is no simulated trial's point";
+  EXPECT_TRUE(source->ok);
+  for (const auto& t : s.trials) {
+    if (t.phase == "exploration" && t.trial_id < 6 && t.ok) EXPECT_LE(source->cost, t.cost) << "trial " << t.trial_id;
+  }
+  ASSERT_TRUE(first.proposal);
+  EXPECT_EQ(first.proposal->basis, "simulation_optimum");
+  EXPECT_FALSE(first.proposal->cost_limit) << "no robot cost to bound the first rollout by";
+  double best_robot = std::numeric_limits<double>::infinity();
+  for (const auto* t : hardware) {
+    ASSERT_TRUE(t->proposal) << "trial " << t->trial_id;
+    if (t == &first) continue;
+    const auto& p = *t->proposal;
+    ASSERT_TRUE(p.cost_limit) << "trial " << t->trial_id;
+    EXPECT_EQ(p.within_cost_bound, p.cost_bound <= *p.cost_limit) << "trial " << t->trial_id;
+    EXPECT_TRUE(p.basis == "safe" || p.basis == "lowest_bound" || p.basis == "least_likely_to_fall") << p.basis;
+    EXPECT_EQ(p.basis == "safe", p.within_cost_bound && p.within_fall_limit) << "trial " << t->trial_id;
+    // The limit is never below (1 + margin) times a robot cost that walked and was reported before the
+    // proposal was made (the robot runs one at a time here: every earlier hardware trial).
+    best_robot = std::numeric_limits<double>::infinity();
+    for (const auto* earlier : hardware) {
+      const auto report = study::stored_report(*earlier);
+      if (earlier->trial_id < t->trial_id && report && report->ok() && !report->fell()) {
+        best_robot = std::min(best_robot, earlier->cost);
+      }
+    }
+    if (std::isfinite(best_robot)) EXPECT_NEAR(*p.cost_limit, (1.0 + margin) * best_robot, 1e-9) << "trial " << t->trial_id;
+  }
+}
+
 TEST_F(HardwareModelTest, AMultiFidelityStudyProposesTheRobotsRolloutsAndAnswersWithTheRobotsBest) {
   const study::StoredStudy s = run_to_the_end("multi_fidelity", 5);
   expect_the_answer_is_the_robots(s, out_.states.back(), 5);
@@ -217,12 +285,56 @@ TEST_F(HardwareModelTest, AMultiFidelityStudyProposesTheRobotsRolloutsAndAnswers
   for (const auto* t : phase(s, "hardware")) points.insert(std::vector<double>(t->x.data(), t->x.data() + t->x.size()));
   EXPECT_EQ(points.size(), 5u);
   EXPECT_NE(s.message.find("5 hardware rollouts (multi_fidelity)"), std::string::npos) << s.message;
+  expect_the_robot_starts_from_the_simulations_best(s);
 }
 
 TEST_F(HardwareModelTest, ATransferStudyLikewise) {
   const study::StoredStudy s = run_to_the_end("transfer", 4);
   expect_the_answer_is_the_robots(s, out_.states.back(), 4);
   EXPECT_GE(sim_reports_at_first_robot_candidate_, 6);
+  expect_the_robot_starts_from_the_simulations_best(s);
+}
+
+TEST_F(HardwareModelTest, WithAnEnqueuedGaitTheRobotStartsFromItAlsoAcrossARestart) {
+  // A queued known gait, not the simulation's best (its simulated cost is about 1.8, the bowl's bottom 1.0):
+  // it runs first in simulation, and then first on the robot.
+  domain::EnqueuedGait g;
+  g.source = "known.yaml";
+  g.parameters = to_map(load_parameters(study::SpecDefaults::shipped().base_parameters_path));
+  g.parameters["hip_offset"] = -0.2;
+  g.parameters["hip_amplitude"] = 0.4;
+  enqueue_ = {g};
+  const auto uninterrupted = run_to_the_end("multi_fidelity", 4);
+  const auto hardware = phase(uninterrupted, "hardware");
+  const auto queued = phase(uninterrupted, study::kPhaseEnqueued);
+  ASSERT_EQ(queued.size(), 1u);
+  ASSERT_FALSE(hardware.empty());
+  EXPECT_EQ(hardware.front()->x, queued.front()->x);
+  ASSERT_TRUE(hardware.front()->proposal);
+  EXPECT_EQ(hardware.front()->proposal->basis, "enqueued_gait");
+  // The simulation found better than the queued gait: the rule, not the costs, put it first.
+  const auto explored = phase(uninterrupted, "exploration");
+  EXPECT_TRUE(std::any_of(explored.begin(), explored.end(),
+                          [&](const auto* t) { return t->ok && t->cost < queued.front()->cost; }));
+  // Killed before the first hardware proposal, with it in flight, and with the second in flight: the same
+  // robot points, the enqueued flag rebuilt from the store's phase.
+  struct Restart {
+    int round;
+    bool in_flight;
+    int stored, done;  // hardware trials in the store at the kill
+  };
+  for (const Restart& r : {Restart{6, false, 0, 0}, Restart{7, true, 1, 0}, Restart{8, true, 2, 1}}) {
+    SCOPED_TRACE(fmt::format("restart at round {}{}", r.round, r.in_flight ? " in flight" : ""));
+    TearDown();
+    open();
+    const auto restarted = run_to_the_end("multi_fidelity", 4, r.round, r.in_flight);
+    EXPECT_EQ(restarted_with_hardware_stored_, r.stored);
+    EXPECT_EQ(restarted_with_hardware_done_, r.done);
+    const auto points = hardware_points_of(restarted);
+    ASSERT_EQ(points.size(), hardware.size());
+    for (std::size_t i = 0; i < points.size(); ++i) EXPECT_EQ(points[i], hardware[i]->x) << "hardware point " << i;
+    EXPECT_EQ(phase(restarted, "hardware").front()->proposal->basis, "enqueued_gait");
+  }
 }
 
 TEST_F(HardwareModelTest, TheRobotsFallsReachItsModelAndItsFaultsSpendNothing) {
@@ -284,6 +396,15 @@ TEST_F(HardwareModelTest, ARestartInTheMiddleProposesTheSameHardwarePointsAsTheU
       ASSERT_EQ(points.size(), expected.size());
       for (std::size_t i = 0; i < points.size(); ++i) EXPECT_EQ(points[i], expected[i]) << "hardware point " << i;
       EXPECT_EQ(restarted.hardware_model_state, uninterrupted.hardware_model_state);
+      // And the safety check each was sent with, to the bit (the same model, the same robot costs before it).
+      const auto a = phase(restarted, "hardware"), b = phase(uninterrupted, "hardware");
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        ASSERT_TRUE(a[i]->proposal && b[i]->proposal) << "hardware trial " << i;
+        EXPECT_EQ(a[i]->proposal->basis, b[i]->proposal->basis) << "hardware trial " << i;
+        EXPECT_EQ(a[i]->proposal->cost_bound, b[i]->proposal->cost_bound) << "hardware trial " << i;
+        EXPECT_EQ(a[i]->proposal->cost_limit, b[i]->proposal->cost_limit) << "hardware trial " << i;
+        EXPECT_EQ(a[i]->proposal->fall_probability, b[i]->proposal->fall_probability) << "hardware trial " << i;
+      }
     }
     TearDown();
     open();
@@ -328,6 +449,37 @@ TEST_F(HardwareModelTest, AStoreWithoutTheHardwareStateColumnIsMigratedAndTheOpt
   EXPECT_TRUE(s->model_state.is_object());
 }
 
+TEST_F(HardwareModelTest, AStoreWithoutTheProposalColumnsReadsAndIsMigrated) {
+  const int id = submit(study_yaml("transfer", 2));
+  run(40);
+  ASSERT_TRUE(phase(*store_->load(id), "hardware").front()->proposal);
+  coordinator_.reset();
+  store_.reset();
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path_.c_str(), &db), SQLITE_OK);
+  for (const char* column : {"proposal_fall_probability", "proposal_within_fall_limit", "proposal_cost_bound",
+                             "proposal_cost_limit", "proposal_within_cost_bound", "proposal_basis"}) {
+    ASSERT_EQ(sqlite3_exec(db, fmt::format("ALTER TABLE trials DROP COLUMN {}", column).c_str(), nullptr, nullptr,
+                           nullptr),
+              SQLITE_OK)
+        << column;
+  }
+  sqlite3_close(db);
+  {
+    // A reader (export, analyze) opens it read-only: nothing migrated, every trial read, none with a check.
+    const study::StudyStore reader(path_, study::kReadOnly);
+    const auto s = reader.load(id);
+    ASSERT_TRUE(s);
+    EXPECT_EQ(s->load_error, "");
+    EXPECT_EQ(phase(*s, "hardware").size(), 2u);
+    for (const auto& t : s->trials) EXPECT_FALSE(t.proposal) << "trial " << t.trial_id;
+  }
+  open();  // the service migrates it: the columns come back, NULL for the trials stored before
+  const auto s = store_->load(id);
+  EXPECT_EQ(phase(*s, "hardware").size(), 2u);
+  for (const auto& t : s->trials) EXPECT_FALSE(t.proposal) << "trial " << t.trial_id;
+}
+
 TEST(HardwareConfig, TheHardwareKeyHasDefaultsRangesAndFileLineErrors) {
   const auto none = study::load_study_config_text("name: a\n", "s.yaml");
   EXPECT_EQ(none.hardware.strategy, study::HardwareStrategy::kNone);  // a plain study never waits for a robot
@@ -336,6 +488,8 @@ TEST(HardwareConfig, TheHardwareKeyHasDefaultsRangesAndFileLineErrors) {
   EXPECT_TRUE(mf.hardware.models_hardware());
   EXPECT_EQ(mf.hardware.budget, 15);
   EXPECT_DOUBLE_EQ(mf.hardware.max_fall_probability, 0.2);
+  EXPECT_DOUBLE_EQ(mf.hardware.safe_margin, 0.1);
+  EXPECT_DOUBLE_EQ(mf.hardware.safe_beta, 2.0);
   EXPECT_EQ(mf.hardware.start_after, 8);  // the initial design
   EXPECT_FALSE(mf.validation.enabled);
   const auto t = study::load_study_config_text(
@@ -344,6 +498,12 @@ TEST(HardwareConfig, TheHardwareKeyHasDefaultsRangesAndFileLineErrors) {
   EXPECT_EQ(t.hardware.budget, 7);
   EXPECT_DOUBLE_EQ(t.hardware.max_fall_probability, 0.1);
   EXPECT_EQ(t.hardware.start_after, 40);
+  const auto safe = study::load_study_config_text(
+      "name: a\nhardware: {strategy: transfer, safe_margin: 0.25, safe_beta: 1.5}\n", "s.yaml");
+  EXPECT_DOUBLE_EQ(safe.hardware.safe_margin, 0.25);
+  EXPECT_DOUBLE_EQ(safe.hardware.safe_beta, 1.5);
+  EXPECT_DOUBLE_EQ(hardware_model_options(safe).safe_margin, 0.25);  // what the study's hardware model gets
+  EXPECT_DOUBLE_EQ(hardware_model_options(safe).safe_beta, 1.5);
   // `validate` is the validation phase; `validation:` stays as its older spelling.
   const auto v = study::load_study_config_text("name: a\nhardware: {strategy: validate, budget: 4, spread: 0.2}\n", "s.yaml");
   EXPECT_TRUE(v.validation.enabled);
@@ -358,6 +518,10 @@ TEST(HardwareConfig, TheHardwareKeyHasDefaultsRangesAndFileLineErrors) {
            {"name: a\nhardware: {budget: 3}\n", "strategy"},
            {"name: a\nhardware: {strategy: transfer, budget: 0}\n", "budget"},
            {"name: a\nhardware: {strategy: transfer, max_fall_probability: 1.5}\n", "max_fall_probability"},
+           {"name: a\nhardware: {strategy: transfer, safe_margin: -0.1}\n", "safe_margin"},
+           {"name: a\nhardware: {strategy: multi_fidelity, safe_margin: lots}\n", "safe_margin"},
+           {"name: a\nhardware: {strategy: multi_fidelity, safe_beta: -2}\n", "safe_beta"},
+           {"name: a\nhardware: {strategy: validate, safe_margin: 0.1}\n", "safe_margin"},
            {"name: a\ninitial_points: 10\nhardware: {strategy: transfer, start_after: 5}\n", "start_after"},
            {"name: a\nbudget: 20\nhardware: {strategy: transfer, start_after: 30}\n", "start_after"},
            {"name: a\nhardware: {strategy: transfer, spread: 0.1}\n", "spread"},

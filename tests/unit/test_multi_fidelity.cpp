@@ -8,6 +8,9 @@
 #include <limits>
 #include <numbers>
 #include <random>
+#include <string>
+#include <tuple>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -335,6 +338,208 @@ TEST(HardwareOptimizer, AStateSavedBeforeTheLatestResultsRestoresExactlyToo) {
                                                           original.hardware_observations(), early);
   EXPECT_EQ(original.ask().x, restored.ask().x);
   EXPECT_THROW(HardwareOptimizer::restore(unit_square(), options, {}, original.hardware_observations(), early), InputError);
+}
+
+TEST(HardwareProposal, ACandidateOutsideTheCostBoundIsNotChosenWhileOneWithinItExists) {
+  // EI 5 is under the fall limit but its pessimistic cost (3.0) is above the limit 2.0: the next best
+  // score within both wins.
+  const Eigen::Vector4d ei(5.0, 1.0, 0.5, 9.0), p_fall(0.1, 0.1, 0.05, 0.9), upper(3.0, 1.9, 1.0, 0.5);
+  const CandidateChoice c = choose_hardware_candidate(ei, p_fall, 0.2, upper, 2.0);
+  EXPECT_EQ(c.index, 1);
+  EXPECT_TRUE(c.within_fall_limit);
+  EXPECT_TRUE(c.within_cost_bound);
+  // None under the fall limit within the bound: the lowest bound among those under the fall limit (not the
+  // one above it, whose bound is lower still), flagged.
+  const CandidateChoice tight = choose_hardware_candidate(ei, p_fall, 0.2, upper, 0.8);
+  EXPECT_EQ(tight.index, 2);
+  EXPECT_TRUE(tight.within_fall_limit);
+  EXPECT_FALSE(tight.within_cost_bound);
+  // No bound (the three-argument form): the old choice.
+  EXPECT_EQ(choose_hardware_candidate(ei, p_fall, 0.2).index, 0);
+}
+
+// 40 Sobol points of the bowl in simulation and one lucky rollout: at (0.15, 0.15), far from the bowl's
+// minimum, the simulation measured less than anywhere else (a noisy rollout: its neighbours cost 2-3).
+// The model smooths it away, so the best point by the model is near the bowl's minimum, the best
+// simulated observation is the lucky one. And the lowest cost of all fell (a fall is never the start).
+void tell_bowl_with_a_lucky_rollout(HardwareOptimizer& hw) {
+  const Eigen::MatrixXd Xs = make_initial_design(InitialDesign::kSobol, 40, 2, 9);
+  for (Eigen::Index i = 0; i < Xs.rows(); ++i) {
+    const Eigen::VectorXd x = Xs.row(i).transpose();
+    hw.tell_simulation({x, bowl(x)});
+  }
+  hw.tell_simulation({Eigen::Vector2d(0.15, 0.15), -0.05});
+  hw.tell_simulation({Eigen::Vector2d(0.9, 0.9), -0.5, false, /*fell=*/true});
+}
+
+TEST(HardwareOptimizer, TheFirstProposalIsTheBestSimulatedPointThatDidNotFallNotTheModelsBest) {
+  for (HardwareStrategy strategy : {HardwareStrategy::kMultiFidelity, HardwareStrategy::kTransfer}) {
+    SCOPED_TRACE(to_string(strategy));
+    HardwareOptimizerOptions options;
+    options.strategy = strategy;
+    options.seed = 3;
+    HardwareOptimizer hw(unit_square(), options);
+    tell_bowl_with_a_lucky_rollout(hw);
+    const HardwareProposal first = hw.ask();
+    EXPECT_EQ(first.x, Eigen::Vector2d(0.15, 0.15));  // the point itself, bit for bit
+    EXPECT_EQ(first.basis, ProposalBasis::kSimulationOptimum);
+    EXPECT_TRUE(std::isnan(first.cost_limit)) << "no robot cost to bound it by";
+    EXPECT_TRUE(first.within_cost_bound);
+    EXPECT_NEAR(first.fall_probability, hw.fall_probability(first.x), 1e-12);
+    // The model's own best: the observed point with the lowest hardware posterior mean, and the proposal
+    // the model makes once a robot point is pending. Neither is the start point here.
+    std::size_t by_model = 0;
+    for (std::size_t i = 0; i < hw.simulation_observations().size(); ++i) {
+      if (hw.predict_hardware(hw.simulation_observations()[i].x).mean <
+          hw.predict_hardware(hw.simulation_observations()[by_model].x).mean) {
+        by_model = i;
+      }
+    }
+    const Eigen::VectorXd model_best = hw.simulation_observations()[by_model].x;
+    std::printf("%s: start (%.3f, %.3f); lowest posterior mean at observed (%.3f, %.3f)\n", to_string(strategy).c_str(),
+                first.x[0], first.x[1], model_best[0], model_best[1]);
+    EXPECT_GT((model_best - first.x).norm(), 0.3);
+    const HardwareProposal second = hw.ask({first.x});
+    EXPECT_NE(second.basis, ProposalBasis::kSimulationOptimum);
+    EXPECT_GT((second.x - first.x).norm(), 1e-6);
+  }
+}
+
+TEST(HardwareOptimizer, AnEnqueuedGaitThatRanIsTheFirstRolloutEvenWhenTheSimulationFoundBetter) {
+  HardwareOptimizerOptions options;
+  options.seed = 3;
+  HardwareOptimizer hw(unit_square(), options);
+  tell_bowl_with_a_lucky_rollout(hw);
+  // Two queued gaits: one walked in simulation at cost 0.4, one (lower) fell: the one that walked.
+  hw.tell_simulation({Eigen::Vector2d(0.3, 0.8), 0.4}, /*enqueued=*/true);
+  hw.tell_simulation({Eigen::Vector2d(0.35, 0.8), 0.1, false, true}, /*enqueued=*/true);
+  const HardwareProposal first = hw.ask();
+  EXPECT_EQ(first.x, Eigen::Vector2d(0.3, 0.8));
+  EXPECT_EQ(first.basis, ProposalBasis::kEnqueuedGait);
+  ASSERT_TRUE(hw.start_point());
+  EXPECT_EQ(hw.start_point()->observation, hw.simulation_observations().size() - 2);
+}
+
+TEST(HardwareOptimizer, LaterProposalsStayWithinTheMarginOfTheBestRobotCostOrAreFlagged) {
+  for (HardwareStrategy strategy : {HardwareStrategy::kMultiFidelity, HardwareStrategy::kTransfer}) {
+    for (CostTransform transform : {CostTransform::kNone, CostTransform::kLog}) {
+      SCOPED_TRACE(to_string(strategy) + (transform == CostTransform::kLog ? " log" : " none"));
+      HardwareOptimizerOptions options;
+      options.strategy = strategy;
+      options.cost_transform = transform;
+      options.seed = 6;
+      HardwareOptimizer hw(unit_square(), options);
+      const Eigen::MatrixXd Xs = make_initial_design(InitialDesign::kSobol, 30, 2, 4);
+      for (Eigen::Index i = 0; i < Xs.rows(); ++i) {
+        const Eigen::VectorXd x = Xs.row(i).transpose();
+        hw.tell_simulation({x, bowl(x) + 0.2});  // > 0: log units too
+      }
+      double best = std::numeric_limits<double>::infinity();
+      int flagged = 0;
+      for (int k = 0; k < 8; ++k) {
+        const HardwareProposal p = hw.ask();
+        if (k == 0) {
+          EXPECT_EQ(p.basis, ProposalBasis::kSimulationOptimum);
+        } else {
+          // The limit is (1 + margin) times the best robot cost so far, in either unit.
+          EXPECT_NEAR(p.cost_limit, (1.0 + options.safe_margin) * best, 1e-9 * best) << "proposal " << k;
+          // The bound is the hardware posterior's mean + beta std, transformed back to cost units.
+          const double upper = p.hardware.mean + options.safe_beta * p.hardware.std;
+          EXPECT_NEAR(p.cost_bound, transform == CostTransform::kLog ? std::exp(upper) : upper, 1e-9) << k;
+          if (p.within_cost_bound) {
+            EXPECT_LE(p.cost_bound, p.cost_limit) << "proposal " << k;
+            EXPECT_EQ(p.basis, ProposalBasis::kSafe);
+          } else {
+            EXPECT_GT(p.cost_bound, p.cost_limit) << "proposal " << k;
+            EXPECT_EQ(p.basis, ProposalBasis::kLowestBound);
+            ++flagged;
+          }
+        }
+        const double cost = robot_bowl(p.x);
+        best = std::min(best, cost);
+        hw.tell_hardware({p.x, cost});
+      }
+      std::printf("%d of 7 later proposals flagged (no candidate within the bound), best robot cost %.4f\n", flagged,
+                  best);
+    }
+  }
+}
+
+TEST(HardwareOptimizer, WhenNoCandidateClearsTheBoundTheLowestBoundIsProposedAndFlagged) {
+  // A lucky robot rollout far below anything the model expects anywhere (the robot's bowl bottoms out at
+  // 0.5), no margin and a bound of 10 standard deviations: no candidate's pessimistic cost clears it.
+  HardwareOptimizerOptions options;
+  options.seed = 2;
+  options.safe_margin = 0.0;
+  options.safe_beta = 10.0;
+  HardwareOptimizer hw(unit_square(), options);
+  tell_bowl(hw, [](const Eigen::VectorXd&) { return false; });
+  hw.tell_hardware({Eigen::Vector2d(0.3, 0.3), 0.05});
+  const HardwareProposal p = hw.ask();
+  std::printf("lowest bound %.4f against the limit %.4f at (%.3f, %.3f)\n", p.cost_bound, p.cost_limit, p.x[0], p.x[1]);
+  EXPECT_EQ(p.basis, ProposalBasis::kLowestBound);
+  EXPECT_FALSE(p.within_cost_bound);
+  EXPECT_TRUE(p.within_fall_limit);
+  EXPECT_GT(p.cost_bound, p.cost_limit);
+  EXPECT_NEAR(p.cost_limit, 0.05, 1e-12);  // the best robot cost, no margin
+}
+
+TEST(HardwareOptimizer, ARestoreAfterTheFirstProposalProposesWhatTheOriginalWould) {
+  for (HardwareStrategy strategy : {HardwareStrategy::kMultiFidelity, HardwareStrategy::kTransfer}) {
+    SCOPED_TRACE(to_string(strategy));
+    HardwareOptimizerOptions options;
+    options.strategy = strategy;
+    options.seed = 9;
+    HardwareOptimizer original(unit_square(), options);
+    tell_bowl_with_a_lucky_rollout(original);
+    original.tell_simulation({Eigen::Vector2d(0.6, 0.3), 0.5}, /*enqueued=*/true);
+    const HardwareProposal first = original.ask();
+    EXPECT_EQ(first.basis, ProposalBasis::kEnqueuedGait);
+    // Killed right after the first ask (before its rollout reported): the same first point.
+    {
+      HardwareOptimizer restored = HardwareOptimizer::restore(
+          unit_square(), options, original.simulation_observations(), original.hardware_observations(),
+          hardware_model_state_from_json(nlohmann::json::parse(hardware_model_state_to_json(original.model_state()).dump())),
+          original.simulation_enqueued());
+      const HardwareProposal again = restored.ask();
+      EXPECT_EQ(again.x, first.x);
+      EXPECT_EQ(again.basis, first.basis);
+      EXPECT_EQ(again.cost_bound, first.cost_bound);
+    }
+    original.tell_hardware({first.x, robot_bowl(first.x)});
+    const std::string saved = hardware_model_state_to_json(original.model_state()).dump();
+    HardwareOptimizer restored = HardwareOptimizer::restore(
+        unit_square(), options, original.simulation_observations(), original.hardware_observations(),
+        hardware_model_state_from_json(nlohmann::json::parse(saved)), original.simulation_enqueued());
+    for (int k = 0; k < 3; ++k) {
+      const HardwareProposal a = original.ask(), b = restored.ask();
+      EXPECT_EQ(a.x, b.x) << "proposal " << k + 1;
+      EXPECT_EQ(a.cost_bound, b.cost_bound) << "proposal " << k + 1;
+      EXPECT_EQ(a.cost_limit, b.cost_limit) << "proposal " << k + 1;
+      EXPECT_EQ(a.basis, b.basis) << "proposal " << k + 1;
+      original.tell_hardware({a.x, robot_bowl(a.x)});
+      restored.tell_hardware({b.x, robot_bowl(b.x)});
+    }
+    // The enqueued flags must match the observations.
+    EXPECT_THROW(HardwareOptimizer::restore(unit_square(), options, original.simulation_observations(),
+                                            original.hardware_observations(), original.model_state(), {true}),
+                 InputError);
+  }
+}
+
+TEST(HardwareOptimizer, ANegativeSafeMarginOrBetaIsRefusedNamingTheField) {
+  for (const auto& [margin, beta, field] : std::vector<std::tuple<double, double, std::string>>{
+           {-0.1, 2.0, "safe_margin"}, {0.1, -1.0, "safe_beta"}, {std::nan(""), 2.0, "safe_margin"}}) {
+    HardwareOptimizerOptions options;
+    options.safe_margin = margin;
+    options.safe_beta = beta;
+    try {
+      HardwareOptimizer hw(unit_square(), options);
+      ADD_FAILURE() << field << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  }
 }
 
 // The robot of the regret comparison: 0.8 hartmann3 plus a smooth gap that penalises high x3 and rewards

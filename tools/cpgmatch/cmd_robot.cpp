@@ -22,7 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct StandResult {
-  double start_height_m = 0.0, end_height_m = 0.0, end_pitch_rad = 0.0;
+  double start_height_m = 0.0, end_height_m = 0.0, end_pitch_rad = 0.0, end_roll_rad = 0.0;
   bool stood = false;
 };
 
@@ -37,7 +37,9 @@ StandResult stand(const sim::PlanarLegModel& model, double seconds) {
   const PlantState s = plant.state();
   r.end_height_m = s.trunk.height_m;
   r.end_pitch_rad = s.trunk.pitch_rad;
-  r.stood = s.trunk.height_m > 0.5 * r.start_height_m && std::abs(s.trunk.pitch_rad) < 0.3;
+  r.end_roll_rad = s.trunk.roll_rad;
+  r.stood = s.trunk.height_m > 0.5 * r.start_height_m && std::abs(s.trunk.pitch_rad) < 0.3 &&
+            std::abs(s.trunk.roll_rad) < 0.3;
   return r;
 }
 
@@ -92,11 +94,13 @@ int check(const std::string& which, bool json) {
   try {
     const sim::PlanarLegModel model = sim::planar_leg_model(robot);
     const StandResult s = stand(model, 3.0);
+    out["planar"] = model.planar;
     out["stand"] = {{"start_height_m", s.start_height_m}, {"end_height_m", s.end_height_m},
-                    {"end_pitch_rad", s.end_pitch_rad}, {"stood", s.stood}};
+                    {"end_pitch_rad", s.end_pitch_rad}, {"end_roll_rad", s.end_roll_rad}, {"stood", s.stood}};
     if (!json) {
-      fmt::print("  standing 3 s     {}: trunk {:.3f} m -> {:.3f} m, pitch {:+.3f} rad\n", s.stood ? "stood" : "FELL",
-                 s.start_height_m, s.end_height_m, s.end_pitch_rad);
+      fmt::print("  simulated as     {}\n", model.planar ? "planar (a rail or boom: forward, up, pitch)" : "free in 3D");
+      fmt::print("  standing 3 s     {}: trunk {:.3f} m -> {:.3f} m, pitch {:+.3f} rad, roll {:+.3f} rad\n",
+                 s.stood ? "stood" : "FELL", s.start_height_m, s.end_height_m, s.end_pitch_rad, s.end_roll_rad);
     }
     for (const auto& [name, values] : robot.presets) {
       sim::SimRolloutJob job = make_sim_job("", {}, "", "", "flat", 0);

@@ -113,7 +113,7 @@ std::string robot_yaml_skeleton(const UrdfModel& urdf, const std::string& urdf_f
   y += fmt::format("name: {}\n", urdf.robot_name.empty() ? "my-robot" : urdf.robot_name);
   y += "summary: \"FILL_IN: one line: what the robot is and where its values come from\"\n";
   y += fmt::format("urdf: {}\n", urdf_file_name);
-  y += "planar: true   # a rail or boom keeps the trunk in the sagittal plane (this version simulates planar robots)\n\n";
+  y += "planar: true   # a rail or boom keeps the trunk in the sagittal plane; false: the robot stands on its own, free in 3D\n\n";
   y += fmt::format("# The URDF's {} links: ", urdf.links.size());
   for (std::size_t i = 0; i < urdf.links.size(); ++i) y += (i ? ", " : "") + urdf.links[i].name;
   y += fmt::format("\n# Its {} joints: ", urdf.joints.size());

@@ -57,7 +57,7 @@ struct CostConfig {
   // then cost more than a fall).
   double min_distance_m = 0.25;
   double contact_cap = 2.0;              // J_contact saturates at two extra contact phases per step and leg
-  double fall_max_abs_pitch_rad = 0.8;   // about 46 degrees
+  double fall_max_abs_pitch_rad = 0.8;   // about 46 degrees; a free robot's roll too (a tilt either way)
   double fall_min_height_m = 0.10;       // trunk centre below this is a fall
   double fall_cost_margin = 1.0;         // a fall costs at least this much more than the non-fall bound
   double fall_cost_per_lost_fraction = 5.0;

@@ -39,6 +39,10 @@ struct TrunkState {
   double height_m = 0.0;    // trunk centre height above the start ground level
   double pitch_rad = 0.0;   // + nose up
   double vx_mps = 0.0;      // forward speed over the ground
+  // A robot free in 3D also rolls, turns and drifts sideways; on a rail or boom these stay 0.
+  double roll_rad = 0.0;    // + left side up (about the forward axis)
+  double yaw_rad = 0.0;     // + turned left (heading about the vertical)
+  double lateral_m = 0.0;   // sideways from the start line, + left
 };
 
 struct PlantState {

@@ -391,7 +391,6 @@ RobotDescription parse_robot(const std::string& yaml_text, const std::string& ya
   robot.joints = std::move(urdf.joints);
   if (r.has("links")) apply_link_masses(r.child("links"), robot);
   robot.planar = r.get_bool("planar", true);
-  if (!robot.planar) r.fail("planar", "false (a free-floating trunk in 3D) is not built by this version's simulation yet");
 
   parse_legs(r, robot);
 

@@ -565,22 +565,60 @@ void Coordinator::apply_hardware_result(StudyRun& s, ModelJobResult result) {
   t.x = p.x;
   t.issued_at_s = wall_now();
   t.phase = "hardware";
+  // The safety check goes into the store with the point, so that the record (export, report) says what each
+  // robot rollout was expected to risk when it was sent, also after a restart.
+  study::HardwareProposalRecord record;
+  record.fall_probability = p.fall_probability;
+  record.within_fall_limit = p.within_fall_limit;
+  record.cost_bound = p.cost_bound;
+  if (std::isfinite(p.cost_limit)) record.cost_limit = p.cost_limit;
+  record.within_cost_bound = p.within_cost_bound;
+  record.basis = bo::to_string(p.basis);
+  t.proposal = record;
   store_.add_trials(s.id, {t});
   InFlight f{t.x, 0, "", 0.0, {}};
   f.hardware = true;
   s.in_flight[t.trial_id] = std::move(f);
   s.dirty = true;
-  const std::string what =
-      fmt::format("study {} trial {}: hardware proposal {} of {} (predicted fall probability {:.3f}, expected improvement "
-                  "{:.3g})",
-                  s.id, t.trial_id, s.hardware_done + s.hardware_in_flight(), s.config.hardware.budget,
-                  p.fall_probability, p.expected_improvement);
-  if (p.within_fall_limit) {
-    info_(what);
-  } else {
-    warn_(what + fmt::format("; every candidate was above the fall limit {:.2f}: this is the least likely to fall",
-                             s.config.hardware.max_fall_probability));
+  const std::string bound =
+      std::isfinite(p.cost_limit)
+          ? fmt::format("cost bound {:.4g} {} limit {:.4g}", p.cost_bound, p.within_cost_bound ? "within" : "above",
+                        p.cost_limit)
+          : fmt::format("cost bound {:.4g}, no robot cost to bound it by yet", p.cost_bound);
+  std::string what =
+      fmt::format("study {} trial {}: hardware proposal {} of {} ({}; predicted fall probability {:.3f}, {}, expected "
+                  "improvement {:.3g})",
+                  s.id, t.trial_id, s.hardware_done + s.hardware_in_flight(), s.config.hardware.budget, record.basis,
+                  p.fall_probability, bound, p.expected_improvement);
+  bool warn = false;
+  switch (p.basis) {
+    case bo::ProposalBasis::kSimulationOptimum:
+      what += ": the first robot rollout, the transferred simulated optimum";
+      break;
+    case bo::ProposalBasis::kEnqueuedGait:
+      what += ": the first robot rollout, the best enqueued gait";
+      break;
+    case bo::ProposalBasis::kSafe:
+      break;
+    case bo::ProposalBasis::kLowestBound:
+      what += fmt::format("; no candidate under the fall limit was within {:.0f}% of the best robot cost: this is the "
+                          "one with the lowest bound",
+                          100.0 * s.config.hardware.safe_margin);
+      warn = true;
+      break;
+    case bo::ProposalBasis::kLeastLikelyToFall:
+      what += fmt::format("; every candidate was above the fall limit {:.2f}: this is the least likely to fall",
+                          s.config.hardware.max_fall_probability);
+      warn = true;
+      break;
   }
+  if (!p.within_fall_limit && p.basis != bo::ProposalBasis::kLeastLikelyToFall) {
+    // The start point is run as the rule says even when a classifier puts it above the limit (it walked
+    // in simulation); said, so that an operator can watch that rollout.
+    what += fmt::format("; above the fall limit {:.2f}", s.config.hardware.max_fall_probability);
+    warn = true;
+  }
+  (warn ? warn_ : info_)(what);
 }
 
 // ---- reports -------------------------------------------------------------------------------------

@@ -323,8 +323,12 @@ void Coordinator::restore_hardware_model(StudyRun& s, const study::StoredStudy* 
   }
   for (std::size_t i = k; i < simulated.size(); ++i) s.hardware_untold_sim.emplace_back(s.told_trials.at(i), simulated[i]);
   for (const auto& o : simulated) s.simulation_successes += o.failed ? 0 : 1;
+  // Which of them were enqueued gaits, as the hardware model jobs told them (model_scheduler.cpp): the
+  // store's phase says it, so the first robot rollout's point survives a restart.
+  std::vector<bool> sim_enqueued;
+  for (std::size_t i = 0; i < k; ++i) sim_enqueued.push_back(s.enqueued_trials.count(s.told_trials.at(i)) > 0);
   s.hardware_optimizer = std::make_shared<bo::HardwareOptimizer>(
-      state ? bo::HardwareOptimizer::restore(s.config.space, options, sim_told, hw_told, *state)
+      state ? bo::HardwareOptimizer::restore(s.config.space, options, sim_told, hw_told, *state, sim_enqueued)
             : bo::HardwareOptimizer(s.config.space, options));
   // Not stale after a restore (its fit counts are its observations): no fit here.
   s.hardware_model = ModelSnapshot::of(*s.hardware_optimizer, s.hardware_told_trials);

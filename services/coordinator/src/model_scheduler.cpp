@@ -171,7 +171,15 @@ std::optional<HardwareModelJob::Kind> HardwareModelJob::due(const StudyRun& s, i
 
 ModelWork HardwareModelJob::prepare(StudyRun& s, Kind kind, const std::function<void(int)>& hook) {
   std::vector<bo::Observation> simulated, hardware;
-  for (auto& [trial_id, observation] : s.hardware_untold_sim) simulated.push_back(std::move(observation));
+  // Which simulated results are enqueued gaits: the best of them is the first robot rollout
+  // (bo::HardwareOptimizer::start_point). Enqueued gaits run on simulation workers like any exploration
+  // trial and are told in the same order; one enqueued after the first robot rollout changes nothing
+  // (only the first rollout starts from it), and one still running then is not waited for.
+  std::vector<bool> enqueued;
+  for (auto& [trial_id, observation] : s.hardware_untold_sim) {
+    simulated.push_back(std::move(observation));
+    enqueued.push_back(s.enqueued_trials.count(trial_id) > 0);
+  }
   for (auto& [trial_id, observation] : s.hardware_untold) {
     s.hardware_told_trials.push_back(trial_id);
     hardware.push_back(std::move(observation));
@@ -185,14 +193,15 @@ ModelWork HardwareModelJob::prepare(StudyRun& s, Kind kind, const std::function<
   const int id = s.id;
   const bool ask = kind == Kind::kAsk;
   return [id, hook, model = s.hardware_optimizer, told = s.hardware_told_trials, simulated = std::move(simulated),
-          hardware = std::move(hardware), pending = std::move(pending), ask]() -> ModelJobResult {
+          enqueued = std::move(enqueued), hardware = std::move(hardware), pending = std::move(pending),
+          ask]() -> ModelJobResult {
     if (hook) hook(id);
     ModelJobResult result;
     result.study_id = id;
     result.ask = ask ? 1 : 0;
     result.hardware = true;
     try {
-      for (const auto& o : simulated) model->tell_simulation(o);
+      for (std::size_t i = 0; i < simulated.size(); ++i) model->tell_simulation(simulated[i], enqueued[i]);
       for (const auto& o : hardware) model->tell_hardware(o);
       if (ask) result.hardware_point = model->ask(pending);  // fits the model when its data changed
       // The answer from the same fit (a tell-only job fits here), and the state a restart resumes from.

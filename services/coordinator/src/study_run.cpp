@@ -41,6 +41,8 @@ bo::HardwareOptimizerOptions hardware_model_options(const study::StudyConfig& co
   o.strategy = config.hardware.strategy == study::HardwareStrategy::kTransfer ? bo::HardwareStrategy::kTransfer
                                                                              : bo::HardwareStrategy::kMultiFidelity;
   o.max_fall_probability = config.hardware.max_fall_probability;
+  o.safe_margin = config.hardware.safe_margin;
+  o.safe_beta = config.hardware.safe_beta;
   // The same units as the study's optimizer (log by default: the fall cliff, docs/optimizer.md).
   o.cost_transform = config.optimizer.cost_transform;
   // Always on, whatever the study's fall_model: on hardware a fall is a robot on the floor.

@@ -35,6 +35,17 @@ void with_model(Model& model, F&& f) {
 
 std::string to_string(HardwareStrategy s) { return s == HardwareStrategy::kTransfer ? "transfer" : "multi_fidelity"; }
 
+std::string to_string(ProposalBasis b) {
+  switch (b) {
+    case ProposalBasis::kSimulationOptimum: return "simulation_optimum";
+    case ProposalBasis::kEnqueuedGait: return "enqueued_gait";
+    case ProposalBasis::kSafe: return "safe";
+    case ProposalBasis::kLowestBound: return "lowest_bound";
+    case ProposalBasis::kLeastLikelyToFall: return "least_likely_to_fall";
+  }
+  return "safe";
+}
+
 HardwareStrategy hardware_strategy_from_string(std::string_view name) {
   if (name == "transfer") return HardwareStrategy::kTransfer;
   if (name == "multi_fidelity") return HardwareStrategy::kMultiFidelity;
@@ -53,29 +64,52 @@ void HardwareOptimizerOptions::validate() const {
   if (!(model.min_rho < model.max_rho)) throw InputError("model.min_rho must be below model.max_rho");
   if (hyperparameter_restart_every < 1) throw InputError("hyperparameter_restart_every must be >= 1");
   if (hyperparameter_warm_evaluations < 1) throw InputError("hyperparameter_warm_evaluations must be >= 1");
+  if (!(safe_margin >= 0.0) || !std::isfinite(safe_margin)) {
+    throw InputError(fmt::format("safe_margin must be a finite number >= 0, got {}", safe_margin));
+  }
+  if (!(safe_beta >= 0.0) || !std::isfinite(safe_beta)) {
+    throw InputError(fmt::format("safe_beta must be a finite number >= 0, got {}", safe_beta));
+  }
 }
 
 CandidateChoice choose_hardware_candidate(const Eigen::VectorXd& ei, const Eigen::VectorXd& p_fall,
                                           double max_fall_probability) {
-  if (ei.size() != p_fall.size() || ei.size() == 0) {
-    throw std::invalid_argument("choose_hardware_candidate: needs as many fall probabilities as candidates, >= 1");
+  return choose_hardware_candidate(ei, p_fall, max_fall_probability, Eigen::VectorXd::Zero(ei.size()),
+                                   std::numeric_limits<double>::infinity());
+}
+
+CandidateChoice choose_hardware_candidate(const Eigen::VectorXd& ei, const Eigen::VectorXd& p_fall,
+                                          double max_fall_probability, const Eigen::VectorXd& upper_bound,
+                                          double cost_limit) {
+  if (ei.size() != p_fall.size() || ei.size() != upper_bound.size() || ei.size() == 0) {
+    throw std::invalid_argument(
+        "choose_hardware_candidate: needs as many fall probabilities and bounds as candidates, >= 1");
   }
-  CandidateChoice safe{-1, true}, safest{-1, false};
+  CandidateChoice safe{-1, true, true}, lowest_bound{-1, true, false}, safest{-1, false, false};
   double best_score = -std::numeric_limits<double>::infinity();
   for (Eigen::Index j = 0; j < ei.size(); ++j) {
     const int i = static_cast<int>(j);
     if (p_fall[j] <= max_fall_probability) {
-      const double score = ei[j] * (1.0 - p_fall[j]);
-      if (safe.index < 0 || score > best_score) {
-        safe.index = i;
-        best_score = score;
+      if (upper_bound[j] <= cost_limit) {
+        const double score = ei[j] * (1.0 - p_fall[j]);
+        if (safe.index < 0 || score > best_score) {
+          safe.index = i;
+          best_score = score;
+        }
+      } else if (lowest_bound.index < 0 || upper_bound[j] < upper_bound[lowest_bound.index] ||
+                 (upper_bound[j] == upper_bound[lowest_bound.index] && ei[j] > ei[lowest_bound.index])) {
+        lowest_bound.index = i;
       }
     } else if (safest.index < 0 || p_fall[j] < p_fall[safest.index] ||
                (p_fall[j] == p_fall[safest.index] && ei[j] > ei[safest.index])) {
       safest.index = i;
     }
   }
-  return safe.index >= 0 ? safe : safest;
+  if (safe.index >= 0) return safe;
+  if (lowest_bound.index >= 0) return lowest_bound;
+  // Above the fall limit, the cost bound is not what decides; whether this one clears it is the caller's to say.
+  safest.within_cost_bound = upper_bound[safest.index] <= cost_limit;
+  return safest;
 }
 
 HardwareOptimizer::HardwareOptimizer(SearchSpace space, HardwareOptimizerOptions options)
@@ -104,9 +138,26 @@ void HardwareOptimizer::check(const Observation& o, const char* where) const {
   }
 }
 
-void HardwareOptimizer::tell_simulation(const Observation& o) {
+void HardwareOptimizer::tell_simulation(const Observation& o, bool enqueued) {
   check(o, "tell_simulation");
   simulation_.push_back(o);
+  simulation_enqueued_.push_back(enqueued);
+}
+
+std::optional<HardwareOptimizer::StartPoint> HardwareOptimizer::start_point() const {
+  // The lowest cost, the earlier on ties (strict <): deterministic in the order the results were told.
+  auto best_of = [&](bool enqueued_only) -> std::optional<std::size_t> {
+    std::optional<std::size_t> best;
+    for (std::size_t i = 0; i < simulation_.size(); ++i) {
+      const Observation& o = simulation_[i];
+      if (o.failed || o.fell || (enqueued_only && !simulation_enqueued_[i])) continue;
+      if (!best || o.y < simulation_[*best].y) best = i;
+    }
+    return best;
+  };
+  if (const auto i = best_of(true)) return StartPoint{*i, ProposalBasis::kEnqueuedGait};
+  if (const auto i = best_of(false)) return StartPoint{*i, ProposalBasis::kSimulationOptimum};
+  return std::nullopt;
 }
 
 void HardwareOptimizer::tell_hardware(const Observation& o) {
@@ -267,6 +318,46 @@ HardwareProposal HardwareOptimizer::ask(const std::vector<Eigen::VectorXd>& pend
   const int n_hw_observed = static_cast<int>(hw.X.rows() - static_cast<Eigen::Index>(pending.size()));
   const double y_best = n_hw_observed > 0 ? hw.y.head(n_hw_observed).minCoeff() : observed_mean.minCoeff();
 
+  const std::optional<StartPoint> start = start_point();
+  if (hardware_.empty() && pending.empty() && start) {
+    // The first robot rollout: the transferred point itself, not a candidate near it. Its numbers are
+    // reported as for any proposal; there is no robot cost yet to bound it against.
+    const Eigen::VectorXd& x = simulation_[start->observation].x;
+    HardwareProposal out;
+    out.x = x;
+    out.basis = start->basis;
+    out.hardware = predict_hardware(x);
+    out.expected_improvement =
+        -negative_expected_improvement(out.hardware.mean, out.hardware.std, y_best, options_.xi).value;
+    out.fall_probability = fall_probability(x);
+    out.within_fall_limit = out.fall_probability <= options_.max_fall_probability;
+    out.cost_bound = from_model(out.hardware.mean + options_.safe_beta * out.hardware.std);
+    out.cost_limit = std::numeric_limits<double>::quiet_NaN();
+    out.within_cost_bound = true;
+    return out;
+  }
+  // The safe-exploration reference: the best robot cost that walked (successful, not fallen: a fall's cost
+  // says nothing about how good a gait may be). Before there is one (the start point still pending, or
+  // every robot rollout failed or fell), what the model expects of the start point. In model units.
+  double reference = std::numeric_limits<double>::infinity();
+  for (const Observation& o : hardware_) {
+    if (!o.failed && !o.fell) reference = std::min(reference, to_model(o.y));
+  }
+  if (!std::isfinite(reference) && start) {
+    with_model(working, [&](const auto& model) {
+      reference = model.predict_hardware(space_.to_unit(simulation_[start->observation].x)).mean;
+    });
+  }
+  // (1 + margin) times the reference cost, in model units: log adds log(1 + margin); in cost units the
+  // margin is taken of |reference| so that it loosens the limit for a negative cost too.
+  double limit_model = std::numeric_limits<double>::infinity();
+  double cost_limit = std::numeric_limits<double>::quiet_NaN();
+  if (std::isfinite(reference)) {
+    limit_model = options_.cost_transform == CostTransform::kLog ? reference + std::log1p(options_.safe_margin)
+                                                                 : reference + options_.safe_margin * std::abs(reference);
+    cost_limit = from_model(limit_model);
+  }
+
   auto rng = rng_for(kAskPurpose, pending.size());
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::normal_distribution<double> step(0.0, options_.local_radius);
@@ -286,20 +377,28 @@ HardwareProposal HardwareOptimizer::ask(const std::vector<Eigen::VectorXd>& pend
 
   Eigen::VectorXd mean, std;
   hardware_posterior(C, &mean, &std);
-  Eigen::VectorXd ei(C.cols()), p_fall(C.cols());
+  Eigen::VectorXd ei(C.cols()), p_fall(C.cols()), upper(C.cols());
   const Eigen::VectorXd safe_sim = simulation_fall_.probability_safe_many(C);
   const Eigen::VectorXd safe_hw = hardware_fall_.probability_safe_many(C);
   for (Eigen::Index j = 0; j < C.cols(); ++j) {
     ei[j] = -negative_expected_improvement(mean[j], std[j], y_best, options_.xi).value;
     p_fall[j] = std::max(1.0 - safe_sim[j], 1.0 - safe_hw[j]);
+    upper[j] = mean[j] + options_.safe_beta * std[j];
   }
-  const CandidateChoice choice = choose_hardware_candidate(ei, p_fall, options_.max_fall_probability);
+  const CandidateChoice choice =
+      choose_hardware_candidate(ei, p_fall, options_.max_fall_probability, upper, limit_model);
   HardwareProposal out;
   out.x = space_.from_unit(C.col(choice.index));
   out.expected_improvement = ei[choice.index];
   out.fall_probability = p_fall[choice.index];
   out.within_fall_limit = choice.within_fall_limit;
   out.hardware = {mean[choice.index], std[choice.index]};
+  out.cost_bound = from_model(upper[choice.index]);
+  out.cost_limit = cost_limit;
+  out.within_cost_bound = choice.within_cost_bound;
+  out.basis = !choice.within_fall_limit ? ProposalBasis::kLeastLikelyToFall
+              : choice.within_cost_bound ? ProposalBasis::kSafe
+                                         : ProposalBasis::kLowestBound;
   return out;
 }
 
@@ -332,8 +431,13 @@ HardwareModelState HardwareOptimizer::model_state() const {
 
 HardwareOptimizer HardwareOptimizer::restore(SearchSpace space, HardwareOptimizerOptions options,
                                              const std::vector<Observation>& simulation,
-                                             const std::vector<Observation>& hardware, const HardwareModelState& state) {
+                                             const std::vector<Observation>& hardware, const HardwareModelState& state,
+                                             const std::vector<bool>& simulation_enqueued) {
   HardwareOptimizer opt(std::move(space), options);
+  if (!simulation_enqueued.empty() && simulation_enqueued.size() != simulation.size()) {
+    throw InputError(fmt::format("restore: {} enqueued flags for {} simulated observations", simulation_enqueued.size(),
+                                 simulation.size()));
+  }
   if (state.simulation_observations < 0 || state.simulation_observations > static_cast<int>(simulation.size()) ||
       state.hardware_observations < 0 || state.hardware_observations > static_cast<int>(hardware.size())) {
     throw InputError(fmt::format("hardware model state of {} simulated and {} hardware observations does not fit {} and {} "
@@ -353,7 +457,9 @@ HardwareOptimizer HardwareOptimizer::restore(SearchSpace space, HardwareOptimize
                                    fall->size(), d, d + 2));
     }
   }
-  for (const auto& o : simulation) opt.tell_simulation(o);
+  for (std::size_t i = 0; i < simulation.size(); ++i) {
+    opt.tell_simulation(simulation[i], !simulation_enqueued.empty() && simulation_enqueued[i]);
+  }
   for (const auto& o : hardware) opt.tell_hardware(o);
   opt.fits_ = state.fits;
   opt.have_hyper_ = state.have_hyperparameters;

@@ -54,6 +54,7 @@ class Statement {
     return check(sqlite3_bind_text(stmt_, i, v.c_str(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
   }
   Statement& bind_int64(int i, std::int64_t v) { return check(sqlite3_bind_int64(stmt_, i, v)); }
+  Statement& bind_null(int i) { return check(sqlite3_bind_null(stmt_, i)); }
   // The bytes must stay valid until the statement runs (SQLITE_STATIC: a blob of megabytes is not copied).
   Statement& bind_blob(int i, const void* data, std::size_t size) {
     return check(sqlite3_bind_blob64(stmt_, i, data, size, SQLITE_STATIC));
@@ -76,6 +77,7 @@ class Statement {
   }
   int column_int(int i) const { return sqlite3_column_int(stmt_, i); }
   double column_double(int i) const { return sqlite3_column_double(stmt_, i); }
+  bool column_is_null(int i) const { return sqlite3_column_type(stmt_, i) == SQLITE_NULL; }
   std::int64_t column_int64(int i) const { return sqlite3_column_int64(stmt_, i); }
   const void* column_blob(int i) const { return sqlite3_column_blob(stmt_, i); }
   std::size_t column_bytes(int i) const { return static_cast<std::size_t>(sqlite3_column_bytes(stmt_, i)); }

@@ -138,10 +138,14 @@ void parse_hardware(const YamlReader& r, StudyConfig& s) {
     s.hardware.budget = s.validation.hardware_sets;
     return;
   }
-  h.reject_unknown_keys({"strategy", "budget", "max_fall_probability", "start_after"});
+  h.reject_unknown_keys({"strategy", "budget", "max_fall_probability", "start_after", "safe_margin", "safe_beta"});
   // A study of more robot rollouts than this is a hardware-only study (`explore_on: hardware`).
   s.hardware.budget = h.get_int_in("budget", s.hardware.budget, 1, 1000);
   s.hardware.max_fall_probability = h.get_double_in("max_fall_probability", s.hardware.max_fall_probability, 0.0, 1.0);
+  // Upper ends: a margin of 10 (a proposal 11 times the best robot cost) or a beta of 10 standard deviations
+  // no longer bound anything a study would notice; larger values are more likely typos than intent.
+  s.hardware.safe_margin = h.get_double_in("safe_margin", s.hardware.safe_margin, 0.0, 10.0);
+  s.hardware.safe_beta = h.get_double_in("safe_beta", s.hardware.safe_beta, 0.0, 10.0);
   // Not before the initial design is in: hardware trials then never take trial ids of the initial design,
   // and the simulation's model is more than random points.
   s.hardware.start_after =

@@ -72,6 +72,14 @@ constexpr std::array kKeys{
     StudyFileKey{"hardware.max_fall_probability", "0..1", "0.2",
                  "transfer and multi_fidelity: a hardware proposal whose predicted fall probability is above this is "
                  "not sent while a safer one exists."},
+    StudyFileKey{"hardware.safe_margin", "0..10", "0.1",
+                 "transfer and multi_fidelity: after the first robot rollout (the simulation's best), a proposal's "
+                 "pessimistic cost (mean + safe_beta std on the hardware model) must be at most (1 + safe_margin) "
+                 "times the best robot cost so far; when no candidate under the fall limit is, the one with the "
+                 "lowest bound runs and the log and the trial record say so. 0.1: the 10% a study's answer is judged by."},
+    StudyFileKey{"hardware.safe_beta", "0..10", "2",
+                 "transfer and multi_fidelity: standard deviations in the pessimistic cost of safe_margin (2: a "
+                 "one-sided 97.7% bound)."},
     StudyFileKey{"hardware.start_after", "integer, initial_points..budget", "initial_points",
                  "Simulated results the study holds before its first hardware proposal."},
     StudyFileKey{"hardware.spread", "0..1", "0.10", "validate: the relative spread of the sets around the best."},

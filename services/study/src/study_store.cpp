@@ -6,6 +6,7 @@
 
 #include <sqlite3.h>
 
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <stdexcept>
@@ -84,6 +85,14 @@ StudyStore::StudyStore(const std::string& path, Durability durability) : path_(p
     // A trial's attempts that did not measure it (plant faults, divergences): counted against the retry
     // bound across restarts; each attempt's report is kept in `attempts`.
     add_column_if_missing("trials", "faults", "INTEGER NOT NULL DEFAULT 0");
+    // A hardware proposal's safety check (StoredTrial::proposal): NULL for every other trial and in stores
+    // from before the check, which therefore read as having none.
+    add_column_if_missing("trials", "proposal_fall_probability", "REAL");
+    add_column_if_missing("trials", "proposal_within_fall_limit", "INTEGER");
+    add_column_if_missing("trials", "proposal_cost_bound", "REAL");
+    add_column_if_missing("trials", "proposal_cost_limit", "REAL");
+    add_column_if_missing("trials", "proposal_within_cost_bound", "INTEGER");
+    add_column_if_missing("trials", "proposal_basis", "TEXT");
     // The study's resolved spec (study_spec.hpp): what its rollouts compute, by content. Empty in stores
     // from before specs until the service migrates them (spec_origin then says so).
     add_column_if_missing("studies", "spec_json", "TEXT NOT NULL DEFAULT ''");
@@ -232,13 +241,18 @@ std::uint64_t StudyStore::read_or_make_store_id() {
   return id;
 }
 
+bool StudyStore::has_column(const std::string& table, const std::string& column) const {
+  Statement info(db_, fmt::format("PRAGMA table_info({})", table).c_str());
+  while (info.step()) {
+    if (info.column_text(1) == column) return true;
+  }
+  return false;
+}
+
 void StudyStore::add_column_if_missing(const std::string& table, const std::string& column,
                                        const std::string& declaration) {
   // Stores written by an older cpgmatch lack newer columns; SQLite adds them in place.
-  Statement info(db_, fmt::format("PRAGMA table_info({})", table).c_str());
-  while (info.step()) {
-    if (info.column_text(1) == column) return;
-  }
+  if (has_column(table, column)) return;
   exec(fmt::format("ALTER TABLE {} ADD COLUMN {} {}", table, column, declaration));
 }
 
@@ -334,11 +348,29 @@ void StudyStore::add_trials(int study_id, const std::vector<StoredTrial>& trials
     exec("BEGIN IMMEDIATE");
   }
   try {
-    Statement s(db_, R"(INSERT INTO trials(study_id, trial_id, x_json, status, attempt, worker_id, issued_at, phase)
-                        VALUES(?, ?, ?, 'in_flight', ?, ?, ?, ?))");
+    Statement s(db_, R"(INSERT INTO trials(study_id, trial_id, x_json, status, attempt, worker_id, issued_at, phase,
+                        proposal_fall_probability, proposal_within_fall_limit, proposal_cost_bound, proposal_cost_limit,
+                        proposal_within_cost_bound, proposal_basis)
+                        VALUES(?, ?, ?, 'in_flight', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?))");
     for (const auto& t : trials) {
       s.bind(1, study_id).bind(2, t.trial_id).bind(3, vector_json(t.x).dump()).bind(4, t.attempt);
-      s.bind(5, t.worker_id).bind(6, t.issued_at_s).bind(7, t.phase).run();
+      s.bind(5, t.worker_id).bind(6, t.issued_at_s).bind(7, t.phase);
+      if (t.proposal) {
+        const HardwareProposalRecord& p = *t.proposal;
+        s.bind(8, p.fall_probability).bind(9, p.within_fall_limit ? 1 : 0);
+        if (std::isfinite(p.cost_bound)) {
+          s.bind(10, p.cost_bound);
+        } else {
+          s.bind_null(10);  // SQLite has no NaN; read back as NaN
+        }
+        if (p.cost_limit) {
+          s.bind(11, *p.cost_limit);
+        } else {
+          s.bind_null(11);
+        }
+        s.bind(12, p.within_cost_bound ? 1 : 0).bind(13, p.basis);
+      }  // else: all NULL (clear_bindings after each row)
+      s.run();
       s.reset();
     }
     exec(nested ? "RELEASE add_trials" : "COMMIT");
@@ -404,8 +436,18 @@ std::vector<StoredStudy> StudyStore::load_all() const {
       out.push_back(std::move(st));
     }
   }
-  Statement s(db_, R"(SELECT study_id, trial_id, x_json, status, attempt, worker_id, issued_at, reported_at, ok, cost,
-                      report_json, report_seq, phase, faults FROM trials ORDER BY study_id, trial_id)");
+  // A store from before the proposal columns, opened read-only (export, analyze), cannot be migrated: it
+  // reads them as NULL, which is what a migrated one holds for those trials.
+  const std::string proposal_columns =
+      has_column("trials", "proposal_basis")
+          ? "proposal_fall_probability, proposal_within_fall_limit, proposal_cost_bound, proposal_cost_limit, "
+            "proposal_within_cost_bound, proposal_basis"
+          : "NULL, NULL, NULL, NULL, NULL, NULL";
+  const std::string select = fmt::format(
+      R"(SELECT study_id, trial_id, x_json, status, attempt, worker_id, issued_at, reported_at, ok, cost,
+         report_json, report_seq, phase, faults, {} FROM trials ORDER BY study_id, trial_id)",
+      proposal_columns);
+  Statement s(db_, select.c_str());
   std::size_t k = 0;
   while (s.step()) {
     const int study_id = s.column_int(0);
@@ -440,6 +482,16 @@ std::vector<StoredStudy> StudyStore::load_all() const {
     t.report_seq = s.column_int(11);
     t.phase = s.column_text(12);
     t.faults = s.column_int(13);
+    if (!s.column_is_null(14)) {
+      HardwareProposalRecord p;
+      p.fall_probability = s.column_double(14);
+      p.within_fall_limit = s.column_int(15) != 0;
+      p.cost_bound = s.column_is_null(16) ? std::nan("") : s.column_double(16);
+      if (!s.column_is_null(17)) p.cost_limit = s.column_double(17);
+      p.within_cost_bound = s.column_int(18) != 0;
+      p.basis = s.column_text(19);
+      t.proposal = std::move(p);
+    }
     out[k].trials.push_back(std::move(t));
   }
   Statement m(db_, "SELECT study_id, state_json, hardware_state_json FROM model_states");

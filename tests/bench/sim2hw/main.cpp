@@ -9,6 +9,7 @@
 // answer of a simulated study of the study's budget on the scenario's model. Writes DIR/cells/SCENARIO-seedS.json
 // per cell (a cell already there is skipped, so an interrupted grid resumes), DIR/reference/SCENARIO.json,
 // and keeps every simulated study in DIR/cache/. Progress goes to stderr.
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -52,6 +53,8 @@ struct Options {
   int calibration_rollouts = 2;
   int grid_points = 8;
   double window_s = 3.0;
+  std::vector<std::string> strategies;  // empty: every strategy
+  std::string hardware_keys;             // more keys of the model-based strategies' `hardware:` mapping
   std::string out;
 };
 
@@ -157,6 +160,8 @@ void run_cell(const Options& o, Scenario& scenario, int seed, const study::Study
   const bo::SearchSpace& space = simulation.config().space;
   nlohmann::json strategies = nlohmann::json::array();
   auto record = [&](const std::string& name, const std::function<StrategyRun(Robot&)>& strategy) {
+    // --strategies: a short run of some of them (a cell then holds only those)
+    if (!o.strategies.empty() && std::find(o.strategies.begin(), o.strategies.end(), name) == o.strategies.end()) return;
     const auto s0 = std::chrono::steady_clock::now();
     Robot robot(robot_spec, stream);
     const StrategyRun run = strategy(robot);
@@ -178,7 +183,8 @@ void run_cell(const Options& o, Scenario& scenario, int seed, const study::Study
   for (const std::string strategy : {"transfer", "multi_fidelity"}) {
     record(strategy, [&](Robot& r) {
       const study::StudySpec s =
-          spec_on(model_path("morti"), base + fmt::format("hardware: {{strategy: {}, budget: {}}}\n", strategy, o.budget));
+          spec_on(model_path("morti"), base + fmt::format("hardware: {{strategy: {}, budget: {}{}{}}}\n", strategy, o.budget,
+                                                          o.hardware_keys.empty() ? "" : ", ", o.hardware_keys));
       return model_over_both(s, simulated.observations, r, o.simulated_per_hardware);
     });
   }
@@ -291,6 +297,14 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 10))->capture_default_str();
   app.add_option("--grid", o.grid_points, "calibration grid points per value (docs/calibration.md)")->check(CLI::Range(0, 50))->capture_default_str();
   app.add_option("--window", o.window_s, "seconds of each trace fitted")->check(CLI::Range(1.5, 20.0))->capture_default_str();
+  app.add_option("--strategies", o.strategies,
+                 "only these strategies (sim_optimum, hardware_bo, hardware_bo_5_initial, transfer, multi_fidelity, "
+                 "calibrate_transfer; default: all)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"sim_optimum", "hardware_bo", "hardware_bo_5_initial", "transfer", "multi_fidelity",
+                             "calibrate_transfer"}));
+  app.add_option("--hardware-keys", o.hardware_keys,
+                 "more keys for transfer and multi_fidelity's hardware: mapping, e.g. \"start_after: 150, safe_margin: 0.2\"");
   app.add_option("--study-budget", study_budget, "simulated rollouts per study (150, the default; less only to try the program)")
       ->check(CLI::Range(20, 1000))->capture_default_str();
   try {

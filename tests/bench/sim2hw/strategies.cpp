@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -70,6 +71,19 @@ StrategyRun model_over_both(const study::StudySpec& study, const std::vector<bo:
     const bo::HardwareProposal p = model.ask({});
     if (reported_since_last_job) run.answer_after.push_back(answer());
     run.proposal_fall_probability.push_back(p.fall_probability);
+    // Issue 33's safe exploration, per proposal: where it came from and the bound it was checked against.
+    run.details["proposal_basis"].push_back(bo::to_string(p.basis));
+    run.details["proposal_cost_bound"].push_back(p.cost_bound);
+    run.details["proposal_cost_limit"].push_back(std::isfinite(p.cost_limit) ? nlohmann::json(p.cost_limit) : nlohmann::json());
+    if (j == 0) {
+      // The first robot rollout should be the transferred simulated optimum: the best simulated observation
+      // that walked among those told, and whether it is the simulated study's own answer too.
+      if (const auto start = model.start_point()) {
+        const Eigen::VectorXd& best = model.simulation_observations()[start->observation].x;
+        run.details["first_is_best_simulated"] = p.x == best;
+        run.details["best_simulated_cost"] = model.simulation_observations()[start->observation].y;
+      }
+    }
     const bo::Observation o = robot.run(p.x);
     run.hardware.push_back(o);
     untold_hardware.push_back(o);

@@ -49,8 +49,10 @@ double wrap_angle(double a) {
   return std::remainder(a, 2.0 * std::numbers::pi);
 }
 
-// A revolute joint of the sagittal plane: two constraint rows, the two in-plane components of "the anchor
-// of body b stays on body a", plus, where the joint has end stops, a one-axis angular motor that adds a row
+// A leg joint: a revolute joint whose axis is the plane's normal (world z), in one of two builds.
+//
+// Planar (a robot on a rail or boom): two constraint rows, the two in-plane components of "the anchor of
+// body b stays on body a", plus, where the joint has end stops, a one-axis angular motor that adds a row
 // only while a stop is reached. ODE has no two-row pin, so the rows are two of its distance joints (DBall):
 // body b's anchor P keeps its distance kPinArm_m from the points P + kPinArm_m x and P + kPinArm_m y fixed on
 // body a. Their rows are unit vectors along those two perpendicular arms, rotating with body a: they span
@@ -64,26 +66,41 @@ double wrap_angle(double a) {
 // after each step (OdePlant::Impl::project_onto_plane), as ODE's own Plane2D demo does; every force in the
 // model lies in the plane, so the projection only removes round-off.
 //
+// Free (a robot standing on its own, free in 3D): an ODE hinge, whose five rows are all needed now, since
+// the feet push sideways and the trunk rolls: the out-of-plane rows carry real load. Its angle is read from
+// the two bodies' rotations (relative_angle), not from the hinge's own angle, so that both builds share the
+// angle, rate, torque and stop code below and its conventions.
+//
 // Conventions are the hinge's that cpgmatch used before: the angle is body b's counter-clockwise rotation
-// relative to body a, zero in the pose the joint was made in; a positive torque turns b counter-clockwise
-// relative to a.
-class PlanarJoint {
+// relative to body a about the axis (+z in the pose the joint was made in), zero in that pose; a positive
+// torque turns b counter-clockwise relative to a.
+class LegJoint {
  public:
-  PlanarJoint() = default;
-  PlanarJoint(dWorldID world, dBodyID a, dBodyID b, double anchor_x, double anchor_y) : a_(a), b_(b) {
-    const double arm_x[2] = {kPinArm_m, 0.0}, arm_y[2] = {0.0, kPinArm_m};
-    for (int k = 0; k < 2; ++k) {
-      pin_[k] = dJointCreateDBall(world, nullptr);
-      dJointAttach(pin_[k], a, b);
-      dJointSetDBallAnchor1(pin_[k], anchor_x + arm_x[k], anchor_y + arm_y[k], 0.0);
-      dJointSetDBallAnchor2(pin_[k], anchor_x, anchor_y, 0.0);
-      dJointSetDBallDistance(pin_[k], kPinArm_m);
+  enum class Build { kPlanar, kFree };
+
+  LegJoint() = default;
+  LegJoint(dWorldID world, dBodyID a, dBodyID b, double anchor_x, double anchor_y, double anchor_z, Build build)
+      : a_(a), b_(b), free_(build == Build::kFree) {
+    if (free_) {
+      pin_[0] = dJointCreateHinge(world, nullptr);
+      dJointAttach(pin_[0], a, b);
+      dJointSetHingeAnchor(pin_[0], anchor_x, anchor_y, anchor_z);
+      dJointSetHingeAxis(pin_[0], 0.0, 0.0, 1.0);
+    } else {
+      const double arm_x[2] = {kPinArm_m, 0.0}, arm_y[2] = {0.0, kPinArm_m};
+      for (int k = 0; k < 2; ++k) {
+        pin_[k] = dJointCreateDBall(world, nullptr);
+        dJointAttach(pin_[k], a, b);
+        dJointSetDBallAnchor1(pin_[k], anchor_x + arm_x[k], anchor_y + arm_y[k], anchor_z);
+        dJointSetDBallAnchor2(pin_[k], anchor_x, anchor_y, anchor_z);
+        dJointSetDBallDistance(pin_[k], kPinArm_m);
+      }
     }
-    dBodyGetPosRelPoint(a, anchor_x, anchor_y, 0.0, anchor_on_a_);
+    dBodyGetPosRelPoint(a, anchor_x, anchor_y, anchor_z, anchor_on_a_);
     zero_ = relative_angle();
   }
 
-  // End stops (radians, in this joint's angle): a user-mode angular motor about -z, which ODE
+  // End stops (radians, in this joint's angle): a user-mode angular motor about -z of body a, which ODE
   // constrains exactly as a hinge's stops (same limit code, same ERP/CFM defaults).
   void set_stops(dWorldID world, double lo, double hi) {
     stops_ = dJointCreateAMotor(world, nullptr);
@@ -97,11 +114,33 @@ class PlanarJoint {
   }
 
   double angle() const { return wrap_angle(relative_angle() - zero_); }
-  double rate() const { return dBodyGetAngularVel(b_)[2] - dBodyGetAngularVel(a_)[2]; }
+  double rate() const {
+    const dReal* wa = dBodyGetAngularVel(a_);
+    const dReal* wb = dBodyGetAngularVel(b_);
+    if (!free_) return wb[2] - wa[2];
+    const Axis n = axis();
+    return (wb[0] - wa[0]) * n.x + (wb[1] - wa[1]) * n.y + (wb[2] - wa[2]) * n.z;
+  }
+
+  // The joint's axis in the world: body a's z axis (z itself in the plane).
+  struct Axis {
+    double x, y, z;
+  };
+  Axis axis() const {
+    if (!free_) return {0.0, 0.0, 1.0};
+    const dReal* r = dBodyGetRotation(a_);  // row-major 3x4: column 2 is body a's z axis in the world
+    return {r[2], r[6], r[10]};
+  }
 
   void add_torque(double torque) const {
-    dBodyAddTorque(a_, 0, 0, -torque);
-    dBodyAddTorque(b_, 0, 0, torque);
+    if (!free_) {
+      dBodyAddTorque(a_, 0, 0, -torque);
+      dBodyAddTorque(b_, 0, 0, torque);
+      return;
+    }
+    const Axis n = axis();
+    dBodyAddTorque(a_, -torque * n.x, -torque * n.y, -torque * n.z);
+    dBodyAddTorque(b_, torque * n.x, torque * n.y, torque * n.z);
   }
 
   // How far apart the joint's two halves are (metres): its anchor as fixed on body a and as fixed on body b.
@@ -109,7 +148,11 @@ class PlanarJoint {
   double gap_m() const {
     dVector3 on_a, on_b;
     dBodyGetRelPointPos(a_, anchor_on_a_[0], anchor_on_a_[1], anchor_on_a_[2], on_a);
-    dJointGetDBallAnchor2(pin_[0], on_b);
+    if (free_) {
+      dJointGetHingeAnchor2(pin_[0], on_b);
+    } else {
+      dJointGetDBallAnchor2(pin_[0], on_b);
+    }
     return std::sqrt((on_a[0] - on_b[0]) * (on_a[0] - on_b[0]) + (on_a[1] - on_b[1]) * (on_a[1] - on_b[1]) +
                      (on_a[2] - on_b[2]) * (on_a[2] - on_b[2]));
   }
@@ -120,13 +163,24 @@ class PlanarJoint {
   }
 
  private:
-  double relative_angle() const { return body_angle_z(b_) - body_angle_z(a_); }
+  double relative_angle() const {
+    if (!free_) return body_angle_z(b_) - body_angle_z(a_);
+    // b's rotation relative to a, R_a^T R_b, is a rotation about z (the hinge holds the other two): its
+    // angle is atan2 of that matrix's (1, 0) and (0, 0) entries.
+    const dReal* ra = dBodyGetRotation(a_);
+    const dReal* rb = dBodyGetRotation(b_);
+    auto entry = [&](int i, int j) {  // (R_a^T R_b)(i, j) = column i of R_a . column j of R_b
+      return ra[i] * rb[j] + ra[4 + i] * rb[4 + j] + ra[8 + i] * rb[8 + j];
+    };
+    return std::atan2(entry(1, 0), entry(0, 0));
+  }
 
   dBodyID a_ = nullptr, b_ = nullptr;
+  bool free_ = false;
   // Long against any drift of the anchor (tens of micrometres), short against the bodies (a few centimetres): the
   // rows' conditioning does not depend on it.
   static constexpr double kPinArm_m = 0.05;
-  dJointID pin_[2] = {nullptr, nullptr};
+  dJointID pin_[2] = {nullptr, nullptr};  // planar: the two distance joints; free: the hinge in pin_[0]
   dVector3 anchor_on_a_{};  // the anchor in body a's frame
   dJointID stops_ = nullptr;
   double zero_ = 0.0;
@@ -192,7 +246,7 @@ struct OdePlant::Impl {
   struct LegBodies {
     dBodyID femur, shank, foot;  // foot: nullptr for a two-segment leg (the toe is on the shank)
     dBodyID toe_body;
-    PlanarJoint hip, knee, ankle;
+    LegJoint hip, knee, ankle;
     dGeomID toe;
     double knee_motor_flexion = 0.0;  // absolute flexion of the knee motor's output (spring rest)
     double knee_motor_speed = 0.0;    // its rate over the last step, rad/s (+ flexing)
@@ -262,7 +316,10 @@ struct OdePlant::Impl {
   }
 
   void add_static_box(double x_min, double x_max, double top_y, double bottom_y) {
-    dGeomID box = dCreateBox(terrain_space, x_max - x_min, top_y - bottom_y, 2.0);
+    // 2 m across: wide enough for a rail's plane; a free robot may wander sideways or turn, so its ground
+    // is as wide as it is long.
+    const double across_m = model.planar ? 2.0 : 400.0;
+    dGeomID box = dCreateBox(terrain_space, x_max - x_min, top_y - bottom_y, across_m);
     dGeomSetPosition(box, 0.5 * (x_min + x_max), 0.5 * (top_y + bottom_y), 0.0);
   }
 
@@ -305,10 +362,11 @@ struct OdePlant::Impl {
     remember_angle_z(body);
   }
 
-  dBodyID make_segment(Vec2 start, double angle, const SegmentModel& seg) {
+  // z: the segment's sideways place (world z, + right; 0 for every leg of a planar robot).
+  dBodyID make_segment(Vec2 start, double z, double angle, const SegmentModel& seg) {
     dBodyID body = dBodyCreate(world);
     const Vec2 d = direction(angle);
-    dBodySetPosition(body, start.x + 0.5 * seg.length_m * d.x, start.y + 0.5 * seg.length_m * d.y, 0.0);
+    dBodySetPosition(body, start.x + 0.5 * seg.length_m * d.x, start.y + 0.5 * seg.length_m * d.y, z);
     dMatrix3 R;
     dRFromAxisAndAngle(R, 0, 0, 1, angle);
     dBodySetRotation(body, R);
@@ -333,7 +391,9 @@ struct OdePlant::Impl {
 
   // Angles: body b's counter-clockwise rotation relative to body a, the convention used everywhere in
   // cpgmatch (hip angle + = foot forward).
-  PlanarJoint make_joint(dBodyID a, dBodyID b, Vec2 anchor) { return PlanarJoint(world, a, b, anchor.x, anchor.y); }
+  LegJoint make_joint(dBodyID a, dBodyID b, Vec2 anchor, double z) {
+    return LegJoint(world, a, b, anchor.x, anchor.y, z, model.planar ? LegJoint::Build::kPlanar : LegJoint::Build::kFree);
+  }
 
   void build_robot() {
     const double a0 = model.femur_mount_angle_rad;
@@ -351,25 +411,29 @@ struct OdePlant::Impl {
     give_angle_slot(trunk);
     // The rail (forward, up, pitch) needs no joint: the projection onto the plane after every step keeps the
     // trunk in it, as it keeps the legs (a Plane2D joint's three rows only repeated that; until 2026-12-07).
+    // A free robot's trunk has no constraint at all: its legs alone hold it up.
 
     const std::vector<double> hip_x = model.hip_positions_m();
     legs.resize(hip_x.size());
     for (std::size_t i = 0; i < legs.size(); ++i) {
       auto& leg = legs[i];
+      // A free robot's legs stand at their sides: the description's + left is the world's -z (x forward,
+      // y up, z = x cross y to the right).
+      const double z = model.planar ? 0.0 : -model.hip_lateral_m.at(i);
       const Vec2 hip{hip_x[i], hip_height};
       const Vec2 knee{hip.x + model.femur.length_m * df.x, hip.y + model.femur.length_m * df.y};
       const Vec2 ankle{knee.x + model.shank.length_m * ds.x, knee.y + model.shank.length_m * ds.y};
-      leg.femur = make_segment(hip, a0, model.femur);
+      leg.femur = make_segment(hip, z, a0, model.femur);
       add_reflected_inertia(leg.femur, model.hip_motor.reflected_inertia_kg_m2);
-      leg.shank = make_segment(knee, a0 - b0, model.shank);
+      leg.shank = make_segment(knee, z, a0 - b0, model.shank);
       // A knee motor that drives the knee directly turns with it: its rotor's inertia loads the shank.
       if (model.knee_drive == PlanarLegModel::KneeDrive::kPositionPd) add_reflected_inertia(leg.shank, model.knee_motor.reflected_inertia_kg_m2);
-      leg.foot = model.has_ankle ? make_segment(ankle, a0, model.foot) : nullptr;
+      leg.foot = model.has_ankle ? make_segment(ankle, z, a0, model.foot) : nullptr;
       // Joints in the order hip, knee, ankle, then the stop motors: ODE solves its rows in creation order,
       // and this is the order every earlier release used (the same bits for Morti).
-      leg.hip = make_joint(trunk, leg.femur, hip);
-      leg.knee = make_joint(leg.femur, leg.shank, knee);
-      if (model.has_ankle) leg.ankle = make_joint(leg.shank, leg.foot, ankle);
+      leg.hip = make_joint(trunk, leg.femur, hip, z);
+      leg.knee = make_joint(leg.femur, leg.shank, knee, z);
+      if (model.has_ankle) leg.ankle = make_joint(leg.shank, leg.foot, ankle, z);
       // Knee angle = -(flexion - b0): stops keep the flexion inside its mechanical range.
       leg.knee.set_stops(world, b0 - model.knee_max_flexion_rad, b0 - model.knee_min_flexion_rad);
       leg.toe = dCreateSphere(nullptr, model.toe_radius_m);
@@ -462,11 +526,13 @@ struct OdePlant::Impl {
     const double deviation_rate = leg.knee.rate() + leg.ankle.rate();
     const double tau_b = -model.biarticular_spring.stiffness_nm_per_rad * deviation -
                          model.biarticular_spring.damping_nm_s_per_rad * deviation_rate;
-    dBodyAddTorque(leg.foot, 0, 0, tau_b);
-    dBodyAddTorque(leg.femur, 0, 0, -tau_b);
+    // About the leg's joint axis (every joint of a leg turns about the same one; z on a rail).
+    const LegJoint::Axis n = leg.knee.axis();
+    dBodyAddTorque(leg.foot, tau_b * n.x, tau_b * n.y, tau_b * n.z);
+    dBodyAddTorque(leg.femur, -tau_b * n.x, -tau_b * n.y, -tau_b * n.z);
   }
 
-  // The stop motors learn the joint angles they limit (PlanarJoint::update_stops) before every solve.
+  // The stop motors learn the joint angles they limit (LegJoint::update_stops) before every solve.
   void update_joint_stops() {
     for (const auto& leg : legs) {
       leg.knee.update_stops();
@@ -494,11 +560,13 @@ struct OdePlant::Impl {
         contact.surface.mu = c.friction;
         contact.surface.soft_erp = erp;
         contact.surface.soft_cfm = cfm;
-        // Friction along the ground's in-plane tangent only: every force of the model lies in the plane,
-        // so an out-of-plane friction row would carry nothing but costs the solver a row (mu2 = 0 drops it).
+        // On a rail: friction along the ground's in-plane tangent only: every force of the model lies in the
+        // plane, so an out-of-plane friction row would carry nothing but costs the solver a row (mu2 = 0
+        // drops it). A free robot's feet also push sideways: both tangents get the friction coefficient (the
+        // pyramid of dContactApprox1, as ODE builds it without dContactMu2).
         const double* n = geoms[k].normal;
         const double tangent_norm = std::hypot(n[0], n[1]);
-        if (tangent_norm > 1e-9) {
+        if (model.planar && tangent_norm > 1e-9) {
           contact.surface.mode |= dContactMu2 | dContactFDir1;
           contact.surface.mu2 = 0.0;
           contact.fdir1[0] = n[1] / tangent_norm;  // (1, 0, 0) on level ground
@@ -560,6 +628,7 @@ struct OdePlant::Impl {
   }
 
   void project_onto_plane() {
+    if (!model.planar) return;  // a free robot leaves the plane by right
     project_onto_plane(trunk);
     for (const auto& leg : legs) {
       project_onto_plane(leg.femur);
@@ -626,7 +695,18 @@ PlantState OdePlant::state() const {
   s.trunk.x_m = p[0] + m.belt_travel;
   s.trunk.vx_mps = v[0] + m.belt_speed();
   s.trunk.height_m = p[1];
-  s.trunk.pitch_rad = body_angle_z(m.trunk);
+  if (m.model.planar) {
+    s.trunk.pitch_rad = body_angle_z(m.trunk);
+  } else {
+    // From the trunk's rotation (row-major 3x4): its forward axis (column 0) and its right axis (column 2) in
+    // the world. Pitch: the forward axis's elevation; roll: the right axis's depression (+ left side up);
+    // yaw: the forward axis's heading, + turned left (towards -z).
+    const dReal* r = dBodyGetRotation(m.trunk);
+    s.trunk.pitch_rad = std::atan2(r[4], std::hypot(r[0], r[8]));
+    s.trunk.roll_rad = std::atan2(-r[6], std::hypot(r[2], r[10]));
+    s.trunk.yaw_rad = std::atan2(-r[8], r[0]);
+    s.trunk.lateral_m = -p[2];
+  }
   s.legs = PerLeg<LegState>(m.legs.size());
   for (std::size_t i = 0; i < m.legs.size(); ++i) {
     const auto& leg = m.legs[i];

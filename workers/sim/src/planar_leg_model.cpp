@@ -127,7 +127,6 @@ void require_alike(const RobotDescription& robot, const LegValues& a, const LegV
 }  // namespace
 
 PlanarLegModel planar_leg_model(const RobotDescription& robot) {
-  if (!robot.planar) refuse(robot, "the plant builds planar robots only");
   const LegValues first = leg_values(robot, robot.legs.front());
   for (std::size_t i = 1; i < robot.legs.size(); ++i) {
     require_alike(robot, first, leg_values(robot, robot.legs[i]), robot.legs[i].name);
@@ -145,6 +144,22 @@ PlanarLegModel planar_leg_model(const RobotDescription& robot) {
   for (const LegDescription& leg : robot.legs) m.hip_x_m.push_back(robot.joint(leg.hip_joint).origin.xyz.x);
   const auto [hind_x, front_x] = std::minmax_element(m.hip_x_m.begin(), m.hip_x_m.end());
   m.hip_spacing_m = *front_x - *hind_x;  // informational: the layout is hip_x_m
+  m.planar = robot.planar;
+  if (!robot.planar) {
+    // A robot standing on its own needs feet on both sides of its trunk: with every hip on one line (or one
+    // side) its support polygon has no width, and it falls sideways whatever the gait.
+    bool left = false, right = false;
+    for (const LegDescription& leg : robot.legs) {
+      const double y = robot.joint(leg.hip_joint).origin.xyz.y;
+      m.hip_lateral_m.push_back(y);
+      left = left || y > kTolerance;
+      right = right || y < -kTolerance;
+    }
+    if (!left || !right) {
+      refuse(robot, "planar: false needs hips on both sides of the trunk (URDF y > 0 and y < 0): a robot whose feet "
+                    "stand on one line cannot stand on its own; keep planar: true for a robot on a rail or boom");
+    }
+  }
 
   m.femur = segment_of(robot.link(robot.joint(robot.legs[0].hip_joint).child_link), first.femur_len);
   m.shank = segment_of(robot.link(robot.joint(robot.legs[0].knee_joint).child_link), first.shank_len);

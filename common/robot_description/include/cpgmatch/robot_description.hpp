@@ -154,7 +154,9 @@ struct RobotDescription {
   std::vector<LinkDescription> links;
   std::vector<JointDescription> joints;
 
-  bool planar = true;  // a rail or boom keeps the trunk in the sagittal plane (forward, up, pitch)
+  // true: a rail or boom keeps the trunk in the sagittal plane (forward, up, pitch); false: the robot stands
+  // on its own, free in 3D (its hips' URDF y then place the legs on its sides).
+  bool planar = true;
   std::vector<LegDescription> legs;
   std::vector<std::string> groups;  // in first-use order
   std::map<std::string, MotorDescription> motors;

@@ -80,6 +80,9 @@ std::vector<std::string> write_optuna_journal(const std::vector<ExportedStudy>& 
       for (const auto& leg : t.leg_energy) {
         for (const auto& item : leg.values.items()) user_attrs[leg_energy_column(leg.leg, item.key())] = item.value();
       }
+      if (t.hardware_proposal.is_object()) {
+        for (const auto& item : t.hardware_proposal.items()) user_attrs[hardware_proposal_column(item.key())] = item.value();
+      }
       const double start_s = t.issued_at_s > 0.0 ? t.issued_at_s : s.created_at_s;
       Json fields = {{"study_id", journal_id},
                      {"datetime_start", iso_local(start_s)},

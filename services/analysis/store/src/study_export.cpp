@@ -135,6 +135,16 @@ ExportedStudy export_study(const study::StoredStudy& stored) {
     c["wall_time_s"] = report_number(r, nullptr, "wall_time_s");
     c["error"] = report_text(r, "error");
     if (done) row.leg_energy = leg_energy_of(r, s.legs);
+    if (t.proposal) {
+      const study::HardwareProposalRecord& p = *t.proposal;
+      row.hardware_proposal = Json::object();
+      row.hardware_proposal["fall_probability"] = number(p.fall_probability);
+      row.hardware_proposal["within_fall_limit"] = p.within_fall_limit;
+      row.hardware_proposal["cost_bound"] = number(p.cost_bound);
+      row.hardware_proposal["cost_limit"] = p.cost_limit ? number(*p.cost_limit) : Json(nullptr);
+      row.hardware_proposal["within_cost_bound"] = p.within_cost_bound;
+      row.hardware_proposal["basis"] = p.basis;
+    }
     s.trials.push_back(std::move(row));
   }
   return s;
@@ -160,6 +170,8 @@ std::string leg_energy_column(const std::string& leg, const std::string& key) {
   return fmt::format("leg_energy.{}.{}", leg, key);
 }
 
+std::string hardware_proposal_column(const std::string& key) { return "hardware_proposal." + key; }
+
 void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
   std::vector<std::string> columns;
   std::vector<std::string> params;
@@ -167,6 +179,9 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
   // Per-leg columns in the order of first appearance: one robot's legs in its order, then another's new ones.
   std::vector<std::string> leg_columns;
   std::set<std::string> seen_leg_columns;
+  // After everything else, and only when some trial is a hardware proposal with its check: a store without
+  // any exports the columns it did before.
+  std::vector<std::string> proposal_keys;
   for (const auto& s : studies) {
     for (const auto& t : s.trials) {
       if (columns.empty()) {
@@ -177,6 +192,9 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
           const std::string name = leg_energy_column(leg.leg, item.key());
           if (seen_leg_columns.insert(name).second) leg_columns.push_back(name);
         }
+      }
+      if (proposal_keys.empty() && t.hardware_proposal.is_object()) {
+        for (const auto& item : t.hardware_proposal.items()) proposal_keys.push_back(item.key());
       }
     }
     for (const auto& p : s.parameters) {
@@ -189,6 +207,7 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
   for (std::size_t i = 0; i < columns.size(); ++i) out << (i ? "," : "") << columns[i];
   for (const auto& p : params) out << ",params_" << p;
   for (const auto& l : leg_columns) out << ',' << csv_cell(Json(l));
+  for (const auto& k : proposal_keys) out << ',' << csv_cell(Json(hardware_proposal_column(k)));
   out << '\n';
   for (const auto& s : studies) {
     for (const auto& t : s.trials) {
@@ -206,6 +225,10 @@ void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out) {
       for (const auto& l : leg_columns) {
         const auto it = by_column.find(l);
         out << ',' << (it == by_column.end() ? std::string() : csv_cell(it->second));
+      }
+      for (const auto& k : proposal_keys) {
+        const bool has = t.hardware_proposal.is_object() && t.hardware_proposal.contains(k);
+        out << ',' << (has ? csv_cell(t.hardware_proposal[k]) : std::string());
       }
       out << '\n';
     }
@@ -226,6 +249,7 @@ nlohmann::ordered_json export_json(const std::vector<ExportedStudy>& studies) {
       Json legs = Json::object();
       for (const auto& leg : t.leg_energy) legs[leg.leg] = leg.values;
       row["leg_energy"] = legs;
+      if (t.hardware_proposal.is_object()) row["hardware_proposal"] = t.hardware_proposal;
       trials.push_back(std::move(row));
     }
     all.push_back({{"study_id", s.study_id},

@@ -13,7 +13,7 @@
 //   lease_s: 120            # wall seconds a worker may take per rollout before it is re-issued
 //   explore_on: simulation  # worker kind running the exploration (budget): simulation | hardware
 //   validation: {hardware_sets: 10, spread: 0.10}   # optional: the hardware validation phase
-//   hardware: {strategy: multi_fidelity, budget: 15, max_fall_probability: 0.2}   # optional: see HardwareConfig
+//   hardware: {strategy: multi_fidelity, budget: 15, max_fall_probability: 0.2, safe_margin: 0.1}   # optional: see HardwareConfig
 //   robot: odrive-quadruped # optional: the study's robot (robot_file.hpp); only its agent runs hardware rollouts
 //   constraints: ["hip_offset + hip_amplitude * (1 + overswing) <= 1.33"]   # optional, see bo/constraints.hpp
 //   enqueue: [good-gait.yaml]   # optional: parameter files run first (docs/steering.md)
@@ -58,6 +58,10 @@ struct HardwareConfig {
   // Simulated results told to the model before the first hardware proposal; 0 in the file means the
   // study's initial_points (the default): before them the simulation's model is a random design.
   int start_after = 0;
+  // Safe exploration (bo::HardwareOptimizerOptions::safe_margin, safe_beta, where the defaults are argued):
+  // a proposal's cost bound mean + safe_beta std must be within (1 + safe_margin) of the best robot cost.
+  double safe_margin = 0.1;
+  double safe_beta = 2.0;
   // One model over both sources: hardware proposals and a hardware answer.
   bool models_hardware() const {
     return strategy == HardwareStrategy::kTransfer || strategy == HardwareStrategy::kMultiFidelity;

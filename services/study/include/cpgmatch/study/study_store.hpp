@@ -38,6 +38,22 @@ enum class TrialStatus { kInFlight, kDone };
 
 inline constexpr const char* kPhaseEnqueued = "enqueued";
 
+// What a hardware proposal of a transfer or multi_fidelity study was checked against when it was made
+// (bo::HardwareProposal, issue 33's safe exploration), kept with its trial: the robot's fall probability
+// there and whether it was within the study's max_fall_probability; the pessimistic cost bound (hardware
+// posterior mean + safe_beta std, in cost units) and the limit it had to stay under ((1 + safe_margin)
+// times the best robot cost so far; none for the first rollout, which then counts as within it); and
+// where the point came from (bo::to_string(ProposalBasis): simulation_optimum, enqueued_gait, safe,
+// lowest_bound, least_likely_to_fall).
+struct HardwareProposalRecord {
+  double fall_probability = 0.0;
+  bool within_fall_limit = true;
+  double cost_bound = 0.0;
+  std::optional<double> cost_limit;
+  bool within_cost_bound = true;
+  std::string basis;
+};
+
 struct StoredTrial {
   int trial_id = 0;
   Eigen::VectorXd x;               // in the search space's units
@@ -58,6 +74,9 @@ struct StoredTrial {
   // a known gait queued by a user (`enqueue`), otherwise an exploration trial (told, counted in the budget).
   std::string phase = "exploration";
   int faults = 0;                  // attempts that ended in a plant fault or a divergence (not spent)
+  // A hardware proposal's safety check (phase "hardware"); none for every other trial and for hardware
+  // trials stored before the columns existed (they read as NULL).
+  std::optional<HardwareProposalRecord> proposal;
 };
 
 // A study's resolved spec as stored (study_spec.hpp): the canonical JSON, its SHA-256, and where it came
@@ -195,6 +214,7 @@ class StudyStore {
 
  private:
   void exec(const std::string& sql) const;
+  bool has_column(const std::string& table, const std::string& column) const;
   void add_column_if_missing(const std::string& table, const std::string& column, const std::string& declaration);
   std::uint64_t read_or_make_store_id();
   void create_trace_table();

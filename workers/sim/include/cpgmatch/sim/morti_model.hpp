@@ -83,6 +83,13 @@ struct PlanarLegModel {
   // Fore-aft position of each leg's hip on the trunk (m, + forward), one per leg in the robot's leg order.
   // Empty: Morti's four legs FL FR HL HR at +-hip_spacing_m / 2 (a model file gives no layout).
   std::vector<double> hip_x_m;
+  // On a rail or boom (the trunk moves forward, up and pitches only; the legs of one side overlap the
+  // other's in the sagittal plane) or free in 3D (a robot standing on its own: roll, yaw and sideways
+  // motion too). Free needs hip_lateral_m; a model file is always planar.
+  bool planar = true;
+  // Sideways position of each leg's hip (m, + left, the URDF's y), in the robot's leg order; read only when
+  // the robot is free.
+  std::vector<double> hip_lateral_m;
 
   std::vector<double> hip_positions_m() const {
     if (!hip_x_m.empty()) return hip_x_m;

@@ -1,12 +1,14 @@
-// Morti in ODE: a Plant whose physics runs in one private ODE world.
+// A legged robot in ODE: a Plant whose physics runs in one private ODE world.
 //
-// Layout: the sagittal plane is the world XY plane (x forward, y up, gravity -y); a Plane2D joint on the
-// trunk gives the rail's three degrees of freedom (forward, vertical, pitch). Legs hang on hinges whose
-// axes are the plane normal, so they stay in the plane without further constraints. Only the four toe
+// Layout: the sagittal plane is the world XY plane (x forward, y up, gravity -y; z = x cross y points right).
+// A planar robot (on a rail or boom: model.planar) stays in it: its legs are two-row pins (LegJoint) and
+// every body is projected back onto the plane after each step, so the trunk moves forward, up and pitches
+// only. A free robot stands on its own: ODE hinges about z join its legs, each leg at its hip's sideways
+// place, and its trunk also rolls, turns and drifts (TrunkState::roll_rad, yaw_rad, lateral_m). Only the toe
 // spheres collide, and only with the terrain.
 //
 // Springs and the hip PD are explicit torques (accurate at 1 kHz for these inertias, see the model YAML);
-// joint range limits are ODE hinge stops (implicit, never explode). The solver is dWorldStep: the
+// joint range limits are ODE stop motors (implicit, never explode). The solver is dWorldStep: the
 // iterative QuickStep lets a standing legged robot sag.
 //
 // Thread safety: one OdePlant must be used by one thread. Debian's ODE has no thread-local collision

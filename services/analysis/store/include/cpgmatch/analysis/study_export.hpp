@@ -34,6 +34,10 @@ struct ExportedTrial {
   // One per leg the report measured, in the robot's leg order; none when the report has no energy (a rollout
   // that did not run, a store from before energy).
   std::vector<ExportedLegEnergy> leg_energy;
+  // A hardware proposal's safety check (study::HardwareProposalRecord) as fall_probability,
+  // within_fall_limit, cost_bound, cost_limit (null: none, the first rollout), within_cost_bound, basis;
+  // null for every other trial and for hardware trials stored before the check.
+  nlohmann::ordered_json hardware_proposal;
   bool done = false;
   bool ok = false;
   double cost = 0.0;
@@ -67,10 +71,15 @@ ExportedStudy export_study(const study::StoredStudy& stored);
 // CSV: a header, then one row per trial of every study; parameter columns are `params_<name>` (as Optuna's
 // trials_dataframe names them), empty where a study has no such parameter; missing numbers are empty. Then the
 // per-leg columns `leg_energy.<leg>.<key>` (leg_energy.L1.hip_positive_work_j), every leg of every study's
-// robot, empty where a study has no such leg: last, so that every column before them keeps its place.
+// robot, empty where a study has no such leg: last, so that every column before them keeps its place. After
+// them, only when a trial has one, a hardware proposal's check as `hardware_proposal.<key>` (see
+// ExportedTrial::hardware_proposal), empty for the other trials.
 void write_csv(const std::vector<ExportedStudy>& studies, std::ostream& out);
 // JSON: {"studies": [{study fields, "parameters": [...], "fixed": {...}, "legs": [...], "trials": [{columns...,
-// "params": {...}, "leg_energy": {"<leg>": {...}, ...}}]}]}.
+// "params": {...}, "leg_energy": {"<leg>": {...}, ...}}]}]}; a hardware proposal's trial also has
+// "hardware_proposal": {...}.
+// The CSV and Optuna journal name of a hardware proposal's key: hardware_proposal.cost_bound.
+std::string hardware_proposal_column(const std::string& key);
 nlohmann::ordered_json export_json(const std::vector<ExportedStudy>& studies);
 
 }  // namespace cpgmatch::analysis
