@@ -30,10 +30,13 @@ using test_support::RecordingOutbox;
 using test_support::study_error;
 
 // Two parameters, so that a hardware ask takes milliseconds; 12 simulated rollouts, 6 of them the initial design.
-std::string study_yaml(const std::string& strategy, int hardware_budget) {
+// `start_after` 6 by default here: robot rollouts interleaved with the simulation, the schedule whose restarts
+// these tests exercise; empty: the study file's default (the whole simulation first).
+std::string study_yaml(const std::string& strategy, int hardware_budget, const std::string& start_after = "6") {
   return "name: two-sources\nbudget: 12\ninitial_points: 6\nseed: 5\nrollout: {entrain_s: 1, eval_s: 1}\n"
          "parameters: [{name: hip_offset, low: -0.35, high: 0.35}, {name: hip_amplitude, low: 0.1, high: 0.65}]\n"
-         "hardware: {strategy: " + strategy + ", budget: " + std::to_string(hardware_budget) + "}\n";
+         "hardware: {strategy: " + strategy + ", budget: " + std::to_string(hardware_budget) +
+         (start_after.empty() ? std::string() : ", start_after: " + start_after) + "}\n";
 }
 
 // The two sources, on the unit square: a smooth bowl in simulation; on the robot 0.8 of it plus a gap that
@@ -160,9 +163,9 @@ class HardwareModelTest : public test_support::CoordinatorFixture {
                                     bool restart_in_flight = false) {
     int id = 0;
     if (enqueue_.empty()) {
-      id = submit(study_yaml(strategy, hardware_budget));
+      id = submit(study_yaml(strategy, hardware_budget, start_after_));
     } else {
-      domain::StudyCommand c = test_support::submit_command(study_yaml(strategy, hardware_budget), ++correlation_);
+      domain::StudyCommand c = test_support::submit_command(study_yaml(strategy, hardware_budget, start_after_), ++correlation_);
       c.enqueue = enqueue_;
       coordinator_->handle_command(c, now_);
       EXPECT_TRUE(out_.replies.back().ok) << out_.replies.back().message;
@@ -195,6 +198,7 @@ class HardwareModelTest : public test_support::CoordinatorFixture {
   }
 
   bool robot_ = true;
+  std::string start_after_ = "6";  // study_yaml's; empty: the default
   std::vector<domain::EnqueuedGait> enqueue_;  // gaits queued at submit
   int model_threads_ = 0;  // 0: model jobs inline
   std::mutex jobs_mutex_;
@@ -220,7 +224,9 @@ void expect_the_answer_is_the_robots(const study::StoredStudy& s, const domain::
     if (t->ok && (lowest == nullptr || t->cost < lowest->cost)) lowest = t;
   }
   ASSERT_NE(lowest, nullptr);
-  EXPECT_EQ(last.recommendation.trial, lowest->trial_id);
+  std::string costs;
+  for (const auto* t : hardware) costs += fmt::format(" trial {}: {:.6f}", t->trial_id, t->cost);
+  EXPECT_EQ(last.recommendation.trial, lowest->trial_id) << costs << "; predicted " << last.recommendation.predicted_cost;
   EXPECT_NEAR(last.recommendation.predicted_cost, lowest->cost, 0.05 * lowest->cost);
   const double u = (lowest->x[0] + 0.35) / 0.7;
   const double simulated_there = (lowest->cost - 0.3 - 0.9 * u) / 0.8;  // hardware_cost() inverted
@@ -286,6 +292,26 @@ TEST_F(HardwareModelTest, AMultiFidelityStudyProposesTheRobotsRolloutsAndAnswers
   EXPECT_EQ(points.size(), 5u);
   EXPECT_NE(s.message.find("5 hardware rollouts (multi_fidelity)"), std::string::npos) << s.message;
   expect_the_robot_starts_from_the_simulations_best(s);
+}
+
+// The default schedule: the robot waits for the whole simulated exploration and starts from its best.
+TEST_F(HardwareModelTest, ByDefaultTheRobotStartsAfterTheWholeSimulationFromItsBest) {
+  start_after_.clear();
+  const study::StoredStudy s = run_to_the_end("multi_fidelity", 3);
+  EXPECT_EQ(sim_reports_at_first_robot_candidate_, 12) << "every simulated result before the first robot candidate";
+  expect_the_robot_starts_from_the_simulations_best(s);
+  // Its point: the best of all twelve simulated rollouts, not only of the initial design.
+  const study::StoredTrial& first = *phase(s, "hardware").front();
+  for (const auto& t : s.trials) {
+    if (t.phase == "exploration" && t.ok && t.x != first.x) {
+      const auto report = study::stored_report(t);
+      if (report && !report->fell()) {
+        for (const auto& u : s.trials) {
+          if (u.phase == "exploration" && u.x == first.x) EXPECT_LE(u.cost, t.cost) << "trial " << t.trial_id;
+        }
+      }
+    }
+  }
 }
 
 TEST_F(HardwareModelTest, ATransferStudyLikewise) {
@@ -550,6 +576,32 @@ TEST(HardwareConfig, TheHardwareKeyIsPartOfTheSpecAndItsHash) {
   EXPECT_EQ(again.config().hardware.strategy, study::HardwareStrategy::kMultiFidelity);
   EXPECT_EQ(again.config().hardware.budget, 5);
   EXPECT_EQ(again.sha256(), mf.sha256());
+}
+
+// The robot's first rollout is the best simulated point told by then, so a new study waits for its whole
+// simulated exploration by default, and says so in its spec; a spec stored before that default (no key)
+// keeps the initial design, as it ran; a study file's own value is kept.
+TEST(HardwareConfig, ANewStudyStartsTheRobotAfterItsWholeSimulationAndItsSpecSaysSo) {
+  const auto defaults = study::SpecDefaults::shipped();
+  const std::string base = "name: a\nbudget: 40\n";
+  for (const char* strategy : {"multi_fidelity", "transfer"}) {
+    SCOPED_TRACE(strategy);
+    const auto spec = study::StudySpec::resolve(base + "hardware: {strategy: " + strategy + ", budget: 5}\n", "s.yaml", defaults);
+    EXPECT_EQ(spec.config().hardware.start_after, 40);
+    EXPECT_EQ(spec.tree()["study"]["hardware"]["start_after"], 40.0);
+    const auto given = study::StudySpec::resolve(base + "hardware: {strategy: " + strategy + ", budget: 5, start_after: 20}\n",
+                                                 "s.yaml", defaults);
+    EXPECT_EQ(given.config().hardware.start_after, 20);
+    // A spec stored before the default: the same tree without the key.
+    nlohmann::json old_tree = nlohmann::json::parse(spec.canonical_json());
+    old_tree["study"]["hardware"].erase("start_after");
+    const auto stored = study::StudySpec::from_json_text(old_tree.dump(), "stored");
+    EXPECT_EQ(stored.config().hardware.start_after, stored.config().optimizer.initial_points);
+    EXPECT_NE(stored.sha256(), spec.sha256());
+  }
+  // Other strategies have no start: nothing is written.
+  const auto validate = study::StudySpec::resolve(base + "hardware: {strategy: validate, budget: 3}\n", "s.yaml", defaults);
+  EXPECT_FALSE(validate.tree()["study"]["hardware"].contains("start_after"));
 }
 
 }  // namespace

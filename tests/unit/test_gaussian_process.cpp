@@ -1,5 +1,6 @@
 // GP posterior and marginal likelihood against hand computations and finite differences.
 #include <cmath>
+#include <iostream>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -105,6 +106,46 @@ TEST(GaussianProcess, MarginalLikelihoodGradientMatchesFiniteDifferences) {
     EXPECT_NEAR(grad[i], fd, 1e-4 * std::max(1.0, std::abs(fd))) << "n = " << n << ", theta[" << i << "]";
   }
   }
+}
+
+TEST(GaussianProcess, AWarmStartedFitStopsOnceTheLikelihoodStopsImprovingAndReachesTheSameOptimum) {
+  // The hyperparameters optimised on 95 points warm-start the fit on 100, as the optimizer's schedule does.
+  // With the absolute tolerance (GpOptions::likelihood_tolerance) the search stops when a step changes the
+  // likelihood by less than that: fewer likelihood evaluations (each O(n^3)), and a likelihood within 1e-3
+  // nats of the search run to the relative tolerance alone.
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const int n = 100, d = 4;
+  Eigen::MatrixXd X(n, d);
+  Eigen::VectorXd y(n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < d; ++j) X(i, j) = u(rng);
+    y[i] = std::sin(4 * X(i, 0)) * std::exp(-X(i, 1)) + 0.5 * X(i, 2) * X(i, 2) - 0.2 * X(i, 3);
+  }
+  GaussianProcess first;
+  first.fit(X.topRows(95), y.head(95), true, rng);
+  GaussianProcess gp;
+  gp.fit(X, y, false, rng, &first.hyperparameters());
+  GpOptions options;
+  options.likelihood_tolerance = 1e-4;  // the value measured in docs/optimizer.md (off by default)
+  const Eigen::VectorXd lb = options.lower_bounds(d), ub = options.upper_bounds(d);
+  const Eigen::VectorXd start = first.hyperparameters().pack().cwiseMax(lb).cwiseMin(ub);
+  int evaluations = 0;
+  auto f = [&](const Eigen::VectorXd& theta, Eigen::VectorXd* grad) {
+    ++evaluations;
+    return gp.log_marginal_likelihood(theta, grad);
+  };
+  const Eigen::VectorXd tight = maximise_from_starts(f, {start}, lb, ub, 200, 0.0);
+  const int tight_evaluations = evaluations;
+  evaluations = 0;
+  const Eigen::VectorXd loose = maximise_from_starts(f, {start}, lb, ub, 200, options.likelihood_tolerance);
+  const int loose_evaluations = evaluations;
+  const double tight_lml = gp.log_marginal_likelihood(tight, nullptr), loose_lml = gp.log_marginal_likelihood(loose, nullptr);
+  EXPECT_GT(loose_lml, gp.log_marginal_likelihood(start, nullptr));  // it did optimise
+  EXPECT_GT(loose_lml, tight_lml - 1e-3);
+  EXPECT_LT(loose_evaluations, tight_evaluations);
+  std::cout << "evaluations: " << tight_evaluations << " (relative 1e-9) -> " << loose_evaluations << " (absolute " << options.likelihood_tolerance << "); LML "
+            << tight_lml << " -> " << loose_lml << "\n";
 }
 
 TEST(GaussianProcess, PredictionGradientMatchesFiniteDifferences) {

@@ -34,6 +34,10 @@ void add_bench_optimizer_command(CLI::App& app) {
   flags->add_to(cmd);
   // The large-study knobs (OptimizerOptions), to measure what each one buys; the defaults are the library's.
   auto knobs = std::make_shared<bo::OptimizerOptions>();
+  auto timings = std::make_shared<bool>(false);
+  cmd->add_flag("--timings", *timings,
+                "with --json: every proposal's CPU and wall ms (proposal_cpu_ms, proposal_ms; index k = the proposal made "
+                "with k results told), to see the model's schedule and medians, not only the last one");
   cmd->add_option("--hyperparameter-growth", knobs->hyperparameter_growth,
                   "re-optimise the GP's hyperparameters once the data grew by this fraction (0: every tell)");
   cmd->add_option("--hyperparameter-max-points", knobs->hyperparameter_max_points,
@@ -42,7 +46,7 @@ void add_bench_optimizer_command(CLI::App& app) {
                   "past this many observations the model is local: the ones nearest the best (0: all)");
   cmd->add_option("--batch-refined-points", knobs->batch_refined_points,
                   "points of a batch whose acquisition is refined; the rest are Thompson draws (0: all refined)");
-  cmd->callback([flags, function, knobs] {
+  cmd->callback([flags, function, knobs, timings] {
     const bo::TestFunction tf = bo::test_function(*function);
     bo::OptimizerOptions options = flags->to_options();
     options.budget = flags->budget;  // as a study does: no model fit after the last result
@@ -67,6 +71,7 @@ void add_bench_optimizer_command(CLI::App& app) {
     int done = 0;
     double last_tell_ms = 0.0, last_tell_cpu_ms = 0.0;
     std::vector<double> recent_cpu_ms;  // the last 10 proposals: the model's schedule amortised
+    std::vector<double> all_cpu_ms, all_ms;
     while (done < flags->budget) {
       const int n = std::min(flags->batch, flags->budget - done);
       const auto t0 = std::chrono::steady_clock::now();
@@ -79,6 +84,8 @@ void add_bench_optimizer_command(CLI::App& app) {
       max_proposal_ms = std::max(max_proposal_ms, last_proposal_ms);
       max_proposal_cpu_ms = std::max(max_proposal_cpu_ms, last_proposal_cpu_ms);
       recent_cpu_ms.push_back(last_proposal_cpu_ms);
+      all_cpu_ms.push_back(last_proposal_cpu_ms);
+      all_ms.push_back(last_proposal_ms);
       if (recent_cpu_ms.size() > 10) recent_cpu_ms.erase(recent_cpu_ms.begin());
       // A long ask says so (a batch of hundreds at thousands of points takes seconds): a long run shows progress.
       if (n > 1 || ask_ms > 1000.0) {
@@ -115,6 +122,10 @@ void add_bench_optimizer_command(CLI::App& app) {
                        {"proposal_cpu_ms_max", max_proposal_cpu_ms},
                        {"proposal_cpu_ms_mean_last10", std::accumulate(recent_cpu_ms.begin(), recent_cpu_ms.end(), 0.0) /
                                                            std::max<std::size_t>(1, recent_cpu_ms.size())}};
+      if (*timings) {
+        j["proposal_cpu_ms"] = all_cpu_ms;
+        j["proposal_ms"] = all_ms;
+      }
       std::cout << j.dump() << std::endl;
     } else {
       fmt::print("{}: best {:.8g} (regret {:.3g}) at evaluation {}; {:.2f} s wall; last proposal {:.1f} ms\n",

@@ -163,7 +163,7 @@ Eigen::VectorXd GpOptions::random_start(int d, std::mt19937_64& rng) const {
 
 Eigen::VectorXd maximise_from_starts(const std::function<double(const Eigen::VectorXd&, Eigen::VectorXd*)>& f,
                                      const std::vector<Eigen::VectorXd>& starts, const Eigen::VectorXd& lb,
-                                     const Eigen::VectorXd& ub, int max_evaluations) {
+                                     const Eigen::VectorXd& ub, int max_evaluations, double absolute_tolerance) {
   using Function = std::function<double(const Eigen::VectorXd&, Eigen::VectorXd*)>;
   auto objective = [](unsigned size, const double* x, double* g, void* data) -> double {
     const Function& function = *static_cast<const Function*>(data);
@@ -182,6 +182,7 @@ Eigen::VectorXd maximise_from_starts(const std::function<double(const Eigen::Vec
     opt.set_max_objective(objective, const_cast<void*>(static_cast<const void*>(&f)));
     opt.set_maxeval(max_evaluations);
     opt.set_ftol_rel(1e-9);
+    if (absolute_tolerance > 0.0) opt.set_ftol_abs(absolute_tolerance);
     std::vector<double> x(s.data(), s.data() + s.size());
     double value = -std::numeric_limits<double>::infinity();
     try {
@@ -255,7 +256,7 @@ void GaussianProcess::fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, bo
     for (int k = 0; k < options_.random_restarts; ++k) starts.push_back(options_.random_start(d, rng));
     const Eigen::VectorXd best_theta = maximise_from_starts(
         [this](const Eigen::VectorXd& theta, Eigen::VectorXd* grad) { return log_marginal_likelihood(theta, grad); },
-        starts, lb, ub, options_.max_evaluations);
+        starts, lb, ub, options_.max_evaluations, options_.likelihood_tolerance);
     hyper_ = GpHyperparameters::unpack(best_theta);
   }
   factorise();

@@ -80,8 +80,10 @@ constexpr std::array kKeys{
     StudyFileKey{"hardware.safe_beta", "0..10", "2",
                  "transfer and multi_fidelity: standard deviations in the pessimistic cost of safe_margin (2: a "
                  "one-sided 97.7% bound)."},
-    StudyFileKey{"hardware.start_after", "integer, initial_points..budget", "initial_points",
-                 "Simulated results the study holds before its first hardware proposal."},
+    StudyFileKey{"hardware.start_after", "integer, initial_points..budget", "budget",
+                 "Simulated results the study holds before its first hardware proposal, whose point is the best of "
+                 "them (budget: the whole simulated exploration; a spec stored before this default, without the "
+                 "key, keeps initial_points)."},
     StudyFileKey{"hardware.spread", "0..1", "0.10", "validate: the relative spread of the sets around the best."},
     StudyFileKey{"validation", "mapping {hardware_sets, spread}", "",
                  "The older spelling of hardware: {strategy: validate, budget, spread}."},

@@ -23,20 +23,35 @@ namespace cpgmatch::bo {
 struct Matern52 {
   static constexpr double kSqrt5 = 2.23606797749978969640917366873128;
 
+  // Each factor once: value = value_factor * decay, slope = slope_factor * decay. value_and_slope()
+  // shares decay between the two (the exponential is most of the kernel's cost).
+  template <typename Derived>
+  static auto decay(const Eigen::ArrayBase<Derived>& r) {
+    // Whole-array expressions, so that exp runs vectorised (Eigen's SIMD exp, within an ulp or two of libm's).
+    return (-kSqrt5 * r).exp();
+  }
+  template <typename Derived>
+  static auto value_factor(const Eigen::ArrayBase<Derived>& r) {
+    return 1.0 + kSqrt5 * r + (5.0 / 3.0) * r.square();
+  }
+  template <typename Derived>
+  static auto slope_factor(const Eigen::ArrayBase<Derived>& r) {
+    return (5.0 / 3.0) * (1.0 + kSqrt5 * r);
+  }
+
   template <typename Derived>
   static auto value(const Eigen::ArrayBase<Derived>& r) {
-    // Whole-array expressions, so that exp runs vectorised (Eigen's SIMD exp, within an ulp or two of libm's).
-    return (1.0 + kSqrt5 * r + (5.0 / 3.0) * r.square()) * (-kSqrt5 * r).exp();
+    return value_factor(r) * decay(r);
   }
   template <typename Derived>
   static auto slope(const Eigen::ArrayBase<Derived>& r) {
-    return (5.0 / 3.0) * (1.0 + kSqrt5 * r) * (-kSqrt5 * r).exp();
+    return slope_factor(r) * decay(r);
   }
   template <typename Derived, typename Value, typename Slope>
   static void value_and_slope(const Eigen::ArrayBase<Derived>& r, Value& value, Slope& slope) {
-    slope = (-kSqrt5 * r).exp();  // the shared exponential, then each factor in place
-    value = (1.0 + kSqrt5 * r + (5.0 / 3.0) * r.square()) * slope;
-    slope = (5.0 / 3.0) * (1.0 + kSqrt5 * r) * slope;
+    slope = decay(r);  // the shared exponential, then each factor in place
+    value = value_factor(r) * slope;
+    slope = slope_factor(r) * slope;
   }
 };
 

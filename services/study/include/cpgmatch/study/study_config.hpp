@@ -55,8 +55,9 @@ struct HardwareConfig {
   int budget = 15;  // hardware rollouts (transfer, multi_fidelity); validate: ValidationConfig::hardware_sets
   // A hardware proposal whose predicted fall probability exceeds this is not sent while a safer one exists.
   double max_fall_probability = 0.2;
-  // Simulated results told to the model before the first hardware proposal; 0 in the file means the
-  // study's initial_points (the default): before them the simulation's model is a random design.
+  // Simulated results told to the model before the first hardware proposal. A study file without the key
+  // gets its budget, written into its spec at resolve (study_spec.cpp says why); a stored spec without it
+  // (resolved before that default) reads as the study's initial_points, the default it ran with.
   int start_after = 0;
   // Safe exploration (bo::HardwareOptimizerOptions::safe_margin, safe_beta, where the defaults are argued):
   // a proposal's cost bound mean + safe_beta std must be within (1 + safe_margin) of the best robot cost.
