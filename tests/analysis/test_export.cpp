@@ -337,7 +337,9 @@ TEST_F(ExportTest, AHardwareProposalsSafetyCheckIsExportedLastAndOnlyWhereThereI
   const auto header = cells(lines[0]);
   for (std::size_t i = 1; i < lines.size(); ++i) {
     // (cells() splits at every comma: the crashed trial's quoted error has one)
-    if (lines[i].find('"') == std::string::npos) ASSERT_EQ(cells(lines[i]).size(), header.size()) << lines[i];
+    if (lines[i].find('"') == std::string::npos) {
+      ASSERT_EQ(cells(lines[i]).size(), header.size()) << lines[i];
+    }
   }
   auto value = [&](std::size_t line, const std::string& column) {
     const auto row = cells(lines.at(line));

@@ -254,7 +254,9 @@ void expect_the_robot_starts_from_the_simulations_best(const study::StoredStudy&
   ASSERT_NE(source, nullptr) << "the first robot point is no simulated trial's point";
   EXPECT_TRUE(source->ok);
   for (const auto& t : s.trials) {
-    if (t.phase == "exploration" && t.trial_id < 6 && t.ok) EXPECT_LE(source->cost, t.cost) << "trial " << t.trial_id;
+    if (t.phase == "exploration" && t.trial_id < 6 && t.ok) {
+      EXPECT_LE(source->cost, t.cost) << "trial " << t.trial_id;
+    }
   }
   ASSERT_TRUE(first.proposal);
   EXPECT_EQ(first.proposal->basis, "simulation_optimum");
@@ -277,7 +279,9 @@ void expect_the_robot_starts_from_the_simulations_best(const study::StoredStudy&
         best_robot = std::min(best_robot, earlier->cost);
       }
     }
-    if (std::isfinite(best_robot)) EXPECT_NEAR(*p.cost_limit, (1.0 + margin) * best_robot, 1e-9) << "trial " << t->trial_id;
+    if (std::isfinite(best_robot)) {
+      EXPECT_NEAR(*p.cost_limit, (1.0 + margin) * best_robot, 1e-9) << "trial " << t->trial_id;
+    }
   }
 }
 
@@ -307,7 +311,9 @@ TEST_F(HardwareModelTest, ByDefaultTheRobotStartsAfterTheWholeSimulationFromItsB
       const auto report = study::stored_report(t);
       if (report && !report->fell()) {
         for (const auto& u : s.trials) {
-          if (u.phase == "exploration" && u.x == first.x) EXPECT_LE(u.cost, t.cost) << "trial " << t.trial_id;
+          if (u.phase == "exploration" && u.x == first.x) {
+            EXPECT_LE(u.cost, t.cost) << "trial " << t.trial_id;
+          }
         }
       }
     }
